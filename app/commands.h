@@ -1,0 +1,11 @@
+// The subcommands of the snowsim command line. Each registers itself on the app and runs when
+// chosen; errors are thrown (InputError: exit 2, SimulationError: exit 3).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace snowsim {
+
+void addRunCommand(CLI::App& app);
+
+}  // namespace snowsim

@@ -1,0 +1,32 @@
+// snowsim: simulates snow and renders it off-screen.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "app/commands.h"
+#include "sim/errors.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"snowsim: simulates snow (the report's density hybrid method and MPM snow) and "
+               "renders it off-screen into PNG frames, MP4 videos and figure strips."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "snowsim 0.1");
+  snowsim::addRunCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  } catch (const snowsim::InputError& e) {
+    std::fprintf(stderr, "snowsim: error: %s\n", e.what());
+    return 2;
+  } catch (const snowsim::SimulationError& e) {
+    std::fprintf(stderr, "snowsim: simulation failed: %s\n", e.what());
+    return 3;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "snowsim: internal error: %s\n", e.what());
+    return 4;
+  }
+  return 0;
+}

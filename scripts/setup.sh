@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package snowsim needs to build, run, test and chart.
+# Idempotent; run as root. Nothing is fetched from anywhere but Debian's archive.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config clang-format
+  # sim/: linear algebra and threads
+  libeigen3-dev libomp-dev
+  # scene files and the command line
+  nlohmann-json3-dev libcli11-dev
+  # render/: off-screen OpenGL, maths, image and video files
+  libosmesa6-dev libglm-dev libstb-dev
+  libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
+  # tests and benchmarks (ffmpeg gives ffprobe for reading videos back)
+  libgtest-dev libgmock-dev libbenchmark-dev ffmpeg
+  # charts for the speed/accuracy study
+  gnuplot-nox
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if ((${#missing[@]})); then
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "setup.sh: missing packages (${missing[*]}); run this script as root" >&2
+    exit 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,30 @@
+// Particles as one flat array per attribute (structure of arrays).
+#pragma once
+
+#include <vector>
+
+#include "sim/math.h"
+
+namespace snowsim {
+
+template <int D>
+struct Particles {
+  std::vector<Vec<D>> x;       // position, m
+  std::vector<Vec<D>> v;       // velocity, m/s
+  std::vector<Real> mass;      // kg
+  std::vector<Real> volume;    // initial volume V_p^0, m^D (set on the first step)
+  std::vector<Real> density;   // density rho_p^0, kg/m^D (set on the first step)
+  std::vector<int> body;       // index of the body the particle was generated in
+
+  int size() const { return static_cast<int>(x.size()); }
+  void add(const Vec<D>& position, const Vec<D>& velocity, Real m, int body_index) {
+    x.push_back(position);
+    v.push_back(velocity);
+    mass.push_back(m);
+    volume.push_back(0);
+    density.push_back(0);
+    body.push_back(body_index);
+  }
+};
+
+}  // namespace snowsim

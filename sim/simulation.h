@@ -1,0 +1,29 @@
+// Time stepping from frame to frame, independent of dimension and solver: the driver the command
+// line, the benchmarks and the tests share.
+#pragma once
+
+#include <memory>
+
+#include "sim/scene.h"
+#include "sim/snapshot.h"
+
+namespace snowsim {
+
+class Simulation {
+ public:
+  virtual ~Simulation() = default;
+
+  // Steps until the simulated time reaches t (the last step is shortened to land on it).
+  // Throws SimulationError when the state stops being finite.
+  virtual void advanceTo(double t) = 0;
+
+  virtual Snapshot snapshot(int frame) const = 0;
+  virtual double time() const = 0;
+  virtual long steps() const = 0;
+  virtual int particleCount() const = 0;
+};
+
+// Builds the particles and the solver the scene asks for, in the scene's dimension.
+std::unique_ptr<Simulation> makeSimulation(const Scene& scene);
+
+}  // namespace snowsim

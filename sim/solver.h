@@ -1,0 +1,28 @@
+// What the time-stepping driver needs of a solver.
+#pragma once
+
+#include <limits>
+
+#include "sim/particles.h"
+#include "sim/snapshot.h"
+
+namespace snowsim {
+
+template <int D>
+class Solver {
+ public:
+  virtual ~Solver() = default;
+
+  // Advances the state by dt seconds.
+  virtual void step(Real dt) = 0;
+
+  // The largest time step the solver's stability allows now (infinity when it has no limit).
+  virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
+
+  virtual const Particles<D>& particles() const = 0;
+
+  // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
+  virtual void describe(Snapshot& snapshot) const = 0;
+};
+
+}  // namespace snowsim

@@ -8,8 +8,9 @@
 #include "sim/errors.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"snowsim: simulates snow (the report's density hybrid method and MPM snow) and "
-               "renders it off-screen into PNG frames, MP4 videos and figure strips."};
+  CLI::App app{
+      "snowsim: simulates snow (the report's density hybrid method and MPM snow) and "
+      "renders it off-screen into PNG frames, MP4 videos and figure strips."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "snowsim 0.1");
   snowsim::addRunCommand(app);

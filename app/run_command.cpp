@@ -75,13 +75,16 @@ void run(const RunOptions& options) {
   }
   for (auto& sink : sinks) sink->finish();
   progress.done();
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  nlohmann::json summary = {
-      {"scene", scene.name},         {"dimension", scene.dimension},
-      {"steps", simulation->steps()}, {"simulated_time", simulation->time()},
-      {"wall_time", wall},           {"particles", simulation->particleCount()},
-      {"frames", frames + 1}};
+  nlohmann::json summary = {{"scene", scene.name},
+                            {"dimension", scene.dimension},
+                            {"steps", simulation->steps()},
+                            {"simulated_time", simulation->time()},
+                            {"wall_time", wall},
+                            {"particles", simulation->particleCount()},
+                            {"frames", frames + 1}};
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
 }
 

@@ -16,6 +16,25 @@ Real clampTowardsPacked(Real own, Real neighbour) {
 }
 
 template <int D>
+void equaliseTowardsPacked(const GridGeometry<D>& grid, const std::vector<Real>& density,
+                           Real critical_density, const std::vector<Vec<D>>& in,
+                           std::vector<Vec<D>>& out) {
+  for (int k = 0; k < grid.nodeCount(); ++k) {
+    const IVec<D> i = grid.coords(k);
+    out[k] = in[k];
+    for (int a = 0; a < D; ++a) {
+      const Real own = in[k][a];
+      if (own == 0) continue;
+      const int step = own > 0 ? 1 : -1;
+      const int next = i[a] + step;
+      if (next < -grid.ghost || next > grid.cells[a] + grid.ghost) continue;
+      const int j = k + step * grid.stride[a];
+      if (density[j] >= critical_density) out[k][a] = clampTowardsPacked(own, in[j][a]);
+    }
+  }
+}
+
+template <int D>
 DensityHybridSolver<D>::DensityHybridSolver(const Scene& scene, Particles<D> particles)
     : params_(scene.density_hybrid), particles_(std::move(particles)) {
   IVec<D> cells;
@@ -28,8 +47,6 @@ DensityHybridSolver<D>::DensityHybridSolver(const Scene& scene, Particles<D> par
   fields_.resize(n);
   node_density_.assign(n, 0);
   scratch_.assign(n, Vec<D>::Zero());
-  node_coords_.resize(n);
-  for (int k = 0; k < n; ++k) node_coords_[k] = grid_.coords(k);
   if (D == 3 && scene.authored_dimension == 2) slab_axis_ = 2;
 }
 
@@ -110,7 +127,7 @@ template <int D>
 void DensityHybridSolver<D>::holdWalls() {
   if (params_.walls == WallRule::ParticlesOnly) return;
   for (int k = 0; k < grid_.nodeCount(); ++k) {
-    const IVec<D>& i = node_coords_[k];
+    const IVec<D> i = grid_.coords(k);
     for (int a = 0; a < D; ++a) {
       if (!isWallNode(i, a)) continue;
       if (a == slab_axis_ || params_.walls == WallRule::SlipGrid) {
@@ -124,31 +141,12 @@ void DensityHybridSolver<D>::holdWalls() {
   }
 }
 
-// Section 3.3, for one field: each component pointing into a packed neighbour is clamped to that
-// neighbour's component. New values are computed from old ones only, so node order is irrelevant.
-template <int D>
-void DensityHybridSolver<D>::equalise(std::vector<Vec<D>>& field) {
-  for (int k = 0; k < grid_.nodeCount(); ++k) {
-    const IVec<D>& i = node_coords_[k];
-    Vec<D> value = field[k];
-    for (int a = 0; a < D; ++a) {
-      const Real own = field[k][a];
-      if (own == 0) continue;
-      const int step = own > 0 ? 1 : -1;
-      const int next = i[a] + step;
-      if (next < -grid_.ghost || next > grid_.cells[a] + grid_.ghost) continue;
-      const int j = k + step * grid_.stride[a];
-      if (node_density_[j] >= critical_density_) value[a] = clampTowardsPacked(own, field[j][a]);
-    }
-    scratch_[k] = value;
-  }
-  field.swap(scratch_);
-}
-
 template <int D>
 void DensityHybridSolver<D>::equaliseForcesAndVelocities() {
-  equalise(fields_.force);
-  equalise(fields_.velocity);
+  for (std::vector<Vec<D>>* field : {&fields_.force, &fields_.velocity}) {
+    equaliseTowardsPacked(grid_, node_density_, critical_density_, *field, scratch_);
+    field->swap(scratch_);
+  }
 }
 
 // Step 5, explicit Euler on the grid.
@@ -191,7 +189,8 @@ void DensityHybridSolver<D>::advect(Real dt) {
     x += dt * particles_.v[p];
     for (int a = 0; a < D; ++a) {
       if (x[a] < 0) x[a] = 0, particles_.v[p][a] = std::max<Real>(particles_.v[p][a], 0);
-      if (x[a] > upper[a]) x[a] = upper[a], particles_.v[p][a] = std::min<Real>(particles_.v[p][a], 0);
+      if (x[a] > upper[a])
+        x[a] = upper[a], particles_.v[p][a] = std::min<Real>(particles_.v[p][a], 0);
     }
   }
 }
@@ -217,6 +216,10 @@ void DensityHybridSolver<D>::describe(Snapshot& snapshot) const {
   }
 }
 
+template void equaliseTowardsPacked<2>(const GridGeometry<2>&, const std::vector<Real>&, Real,
+                                       const std::vector<Vec<2>>&, std::vector<Vec<2>>&);
+template void equaliseTowardsPacked<3>(const GridGeometry<3>&, const std::vector<Real>&, Real,
+                                       const std::vector<Vec<3>>&, std::vector<Vec<3>>&);
 template class DensityHybridSolver<2>;
 template class DensityHybridSolver<3>;
 

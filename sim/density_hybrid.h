@@ -17,6 +17,14 @@ namespace snowsim {
 // Returns the component unchanged when the neighbour moves away at least as fast.
 Real clampTowardsPacked(Real own, Real neighbour);
 
+// Step 4 over a whole field (force or velocity): every component pointing into a neighbour whose
+// density is at or above the critical density is clamped by clampTowardsPacked. New values are
+// computed from the old ones only (in -> out), so the order of the cells does not matter.
+template <int D>
+void equaliseTowardsPacked(const GridGeometry<D>& grid, const std::vector<Real>& density,
+                           Real critical_density, const std::vector<Vec<D>>& in,
+                           std::vector<Vec<D>>& out);
+
 template <int D>
 class DensityHybridSolver final : public Solver<D> {
  public:
@@ -32,19 +40,18 @@ class DensityHybridSolver final : public Solver<D> {
   const std::vector<Real>& nodeDensity() const { return node_density_; }
 
   // The stages of one step, in order (report section 3.2); public so tests can drive them.
-  void rasterise();                           // 1. mass and velocity to the grid
-  void computeParticleVolumes();              // 2. first step only: rho_p, V_p, critical density
-  void computeGridForces();                   // 3. f_i = m_i g
-  void holdWalls();                           //    walls of the box (the fluid code's boundary)
-  void equaliseForcesAndVelocities();         // 4. critical-density rule (section 3.3)
-  void updateGridVelocities(Real dt);         // 5. v* = v + dt f / m
-  void updateParticleVelocities();            // 6. PIC/FLIP blend
-  void collideWithGround();                   // 7. particles at the ground lose downward speed
-  void advect(Real dt);                       // 8. x += dt v, kept inside the box
+  void rasterise();                    // 1. mass and velocity to the grid
+  void computeParticleVolumes();       // 2. first step only: rho_p, V_p, critical density
+  void computeGridForces();            // 3. f_i = m_i g
+  void holdWalls();                    //    walls of the box (the fluid code's boundary)
+  void equaliseForcesAndVelocities();  // 4. critical-density rule (section 3.3)
+  void updateGridVelocities(Real dt);  // 5. v* = v + dt f / m
+  void updateParticleVelocities();     // 6. PIC/FLIP blend
+  void collideWithGround();            // 7. particles at the ground lose downward speed
+  void advect(Real dt);                // 8. x += dt v, kept inside the box
 
  private:
   bool isWallNode(const IVec<D>& i, int axis) const;
-  void equalise(std::vector<Vec<D>>& field);
 
   DensityHybridParams params_;
   Vec<D> gravity_;
@@ -53,8 +60,7 @@ class DensityHybridSolver final : public Solver<D> {
   GridFields<D> fields_;
   std::vector<Real> node_density_;  // m_i / h^D of the current step
   std::vector<Vec<D>> scratch_;     // new values of step 4 (read old, write new)
-  std::vector<IVec<D>> node_coords_;
-  int slab_axis_ = -1;  // the extruded axis of a 2D scene run as a 3D slab, else -1
+  int slab_axis_ = -1;              // the extruded axis of a 2D scene run as a 3D slab, else -1
   Real critical_density_ = 0;
   bool first_step_ = true;
 };

@@ -53,7 +53,9 @@ JsonFields::JsonFields(const Json& object, std::string path, std::string file)
                      ": expected an object, found " + typeName(object_));
 }
 
-bool JsonFields::has(const std::string& key) const { return object_.contains(key); }
+bool JsonFields::has(const std::string& key) const {
+  return object_.contains(key);
+}
 
 std::string JsonFields::fieldPath(const std::string& key) const {
   return path_.empty() ? key : path_ + "." + key;
@@ -68,8 +70,12 @@ const Json* JsonFields::lookup(const std::string& key, bool required) {
   read_.insert(key);
   auto it = object_.find(key);
   if (it == object_.end()) {
-    if (required) fail(key, "missing (this field is required)");
-    return nullptr;
+    if (!required) return nullptr;
+    // A misspelt required field is better reported as the misspelling.
+    for (auto other = object_.begin(); other != object_.end(); ++other)
+      if (editDistance(other.key(), key) <= 2)
+        fail(other.key(), "unknown field; did you mean \"" + key + "\"?");
+    fail(key, "missing (this field is required)");
   }
   return &*it;
 }

@@ -9,12 +9,12 @@ namespace snowsim {
 
 template <int D>
 struct Particles {
-  std::vector<Vec<D>> x;       // position, m
-  std::vector<Vec<D>> v;       // velocity, m/s
-  std::vector<Real> mass;      // kg
-  std::vector<Real> volume;    // initial volume V_p^0, m^D (set on the first step)
-  std::vector<Real> density;   // density rho_p^0, kg/m^D (set on the first step)
-  std::vector<int> body;       // index of the body the particle was generated in
+  std::vector<Vec<D>> x;      // position, m
+  std::vector<Vec<D>> v;      // velocity, m/s
+  std::vector<Real> mass;     // kg
+  std::vector<Real> volume;   // initial volume V_p^0, m^D (set on the first step)
+  std::vector<Real> density;  // density rho_p^0, kg/m^D (set on the first step)
+  std::vector<int> body;      // index of the body the particle was generated in
 
   int size() const { return static_cast<int>(x.size()); }
   void add(const Vec<D>& position, const Vec<D>& velocity, Real m, int body_index) {

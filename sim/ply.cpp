@@ -59,7 +59,9 @@ void writePly(const std::string& path, const Snapshot& s) {
 Snapshot readPly(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open the PLY file");
-  auto bad = [&](const std::string& why) { return InputError(path + ": not a snowsim PLY file: " + why); };
+  auto bad = [&](const std::string& why) {
+    return InputError(path + ": not a snowsim PLY file: " + why);
+  };
   Snapshot s;
   std::string line;
   if (!std::getline(in, line) || line != "ply") throw bad("missing the 'ply' magic line");
@@ -78,18 +80,27 @@ Snapshot readPly(const std::string& path) {
       std::string tag, key;
       words >> tag >> key;
       if (tag != "snowsim") continue;
-      if (key == "frame") words >> s.frame;
-      else if (key == "time") words >> s.time;
-      else if (key == "dimension") words >> s.grid.dimension;
-      else if (key == "cells") words >> s.grid.cells[0] >> s.grid.cells[1] >> s.grid.cells[2];
-      else if (key == "cell_size") words >> s.grid.cell_size;
-      else if (key == "critical_density") words >> s.grid.critical_density;
+      if (key == "frame")
+        words >> s.frame;
+      else if (key == "time")
+        words >> s.time;
+      else if (key == "dimension")
+        words >> s.grid.dimension;
+      else if (key == "cells")
+        words >> s.grid.cells[0] >> s.grid.cells[1] >> s.grid.cells[2];
+      else if (key == "cell_size")
+        words >> s.grid.cell_size;
+      else if (key == "critical_density")
+        words >> s.grid.critical_density;
     } else if (word == "element") {
       long count = 0;
       words >> element >> count;
-      if (element == "vertex") vertices = count;
-      else if (element == "node") nodes = count;
-      else throw bad("unexpected element " + element);
+      if (element == "vertex")
+        vertices = count;
+      else if (element == "node")
+        nodes = count;
+      else
+        throw bad("unexpected element " + element);
     } else if (word == "property") {
       std::string type, name;
       words >> type >> name;

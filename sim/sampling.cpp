@@ -14,9 +14,12 @@ bool bodyContains(const Body& body, const Vec3& p, int shape_dimension) {
     along_cut += d * body.cut_normal[a];
   }
   switch (body.shape) {
-    case BodyShape::Box: return true;
-    case BodyShape::Ball: return r2 <= body.radius * body.radius;
-    case BodyShape::HalfBall: return r2 <= body.radius * body.radius && along_cut >= 0;
+    case BodyShape::Box:
+      return true;
+    case BodyShape::Ball:
+      return r2 <= body.radius * body.radius;
+    case BodyShape::HalfBall:
+      return r2 <= body.radius * body.radius && along_cut >= 0;
   }
   return false;
 }

@@ -25,8 +25,8 @@ struct Snapshot {
   GridInfo grid;
   std::vector<std::array<float, 3>> position;
   std::vector<std::array<float, 3>> velocity;
-  std::vector<float> density;   // kg/m^D per particle (current, interpolated from the grid)
-  std::vector<float> plastic_j; // J_P, the plastic volume ratio (MPM only; empty otherwise)
+  std::vector<float> density;    // kg/m^D per particle (current, interpolated from the grid)
+  std::vector<float> plastic_j;  // J_P, the plastic volume ratio (MPM only; empty otherwise)
 
   int size() const { return static_cast<int>(position.size()); }
 };

@@ -1,1 +1,79 @@
+// B-spline weights: partition of unity, zero-sum gradients, linear reproduction, and gradients
+// that match finite differences.
 #include <gtest/gtest.h>
+
+#include <random>
+
+#include "sim/bspline.h"
+
+namespace snowsim {
+namespace {
+
+template <class Kernel>
+void checkAxisWeights() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<Real> position(-3.0, 13.0);
+  for (int trial = 0; trial < 1000; ++trial) {
+    const Real X = position(rng);
+    Real w[Kernel::support], dw[Kernel::support];
+    const int base = Kernel::weights(X, w, dw);
+    Real sum = 0, gradient_sum = 0, first_moment = 0;
+    for (int k = 0; k < Kernel::support; ++k) {
+      EXPECT_GE(w[k], 0);
+      sum += w[k];
+      gradient_sum += dw[k];
+      first_moment += w[k] * (base + k);
+    }
+    EXPECT_NEAR(sum, 1, 1e-14);
+    EXPECT_NEAR(gradient_sum, 0, 1e-13);
+    EXPECT_NEAR(first_moment, X, 1e-12) << "B-splines reproduce linear functions";
+
+    // dN/dX against a central difference of the weights at the same base node.
+    const Real e = 1e-6;
+    Real wp[Kernel::support], wm[Kernel::support], unused[Kernel::support];
+    if (Kernel::weights(X + e, wp, unused) != base || Kernel::weights(X - e, wm, unused) != base)
+      continue;
+    for (int k = 0; k < Kernel::support; ++k) EXPECT_NEAR(dw[k], (wp[k] - wm[k]) / (2 * e), 1e-6);
+  }
+}
+
+TEST(BSpline, QuadraticWeightsSumToOneGradientsToZero) { checkAxisWeights<QuadraticBSpline>(); }
+TEST(BSpline, CubicWeightsSumToOneGradientsToZero) { checkAxisWeights<CubicBSpline>(); }
+
+TEST(BSpline, CubicMatchesThePaperFormula) {
+  // Stomakhin et al. 2013, eq. 5, at a few hand-checked points.
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(0), 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(1), 1.0 / 6.0);
+  EXPECT_NEAR(CubicBSpline::value(-1.5), 1.0 / 48.0, 1e-15);
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(2), 0);
+}
+
+template <int D, class Kernel>
+void checkStencil() {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> position(0.0, 0.1);
+  const Real h = 0.01;
+  for (int trial = 0; trial < 200; ++trial) {
+    Vec<D> x;
+    for (int a = 0; a < D; ++a) x[a] = position(rng);
+    const Stencil<D, Kernel> s(x, 1 / h);
+    Real sum = 0;
+    Vec<D> gradient_sum = Vec<D>::Zero(), first_moment = Vec<D>::Zero();
+    for (int n = 0; n < s.nodes; ++n) {
+      sum += s.weight(n);
+      gradient_sum += s.gradient(n, 1 / h);
+      first_moment += s.weight(n) * s.node(n).template cast<Real>() * h;
+    }
+    EXPECT_NEAR(sum, 1, 1e-13);
+    EXPECT_LT(gradient_sum.norm(), 1e-10);
+    EXPECT_LT((first_moment - x).norm(), 1e-12);
+  }
+}
+
+TEST(BSpline, StencilPartitionOfUnity2DQuadratic) { checkStencil<2, QuadraticBSpline>(); }
+TEST(BSpline, StencilPartitionOfUnity2DCubic) { checkStencil<2, CubicBSpline>(); }
+TEST(BSpline, StencilPartitionOfUnity3DQuadratic) { checkStencil<3, QuadraticBSpline>(); }
+TEST(BSpline, StencilPartitionOfUnity3DCubic) { checkStencil<3, CubicBSpline>(); }
+
+}  // namespace
+}  // namespace snowsim

@@ -1,1 +1,91 @@
+// PLY frames round-trip every field and fail clearly on files they did not write.
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/errors.h"
+#include "sim/ply.h"
+
+namespace snowsim {
+namespace {
+
+std::filesystem::path tempDir() {
+  auto dir = std::filesystem::temp_directory_path() / ("snowsim_ply_test_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+Snapshot sample(bool with_plastic) {
+  Snapshot s;
+  s.frame = 7;
+  s.time = 0.14;
+  s.grid.dimension = 2;
+  s.grid.cells = {3, 2, 1};
+  s.grid.cell_size = 0.01;
+  s.grid.critical_density = 123.5;
+  s.grid.node_density = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
+  for (int i = 0; i < 5; ++i) {
+    s.position.push_back({0.01f * i, 0.02f, 0});
+    s.velocity.push_back({-1.0f * i, 0.5f, 0});
+    s.density.push_back(100.0f + i);
+    if (with_plastic) s.plastic_j.push_back(0.9f + 0.01f * i);
+  }
+  return s;
+}
+
+TEST(Ply, RoundTripsEveryField) {
+  for (bool with_plastic : {false, true}) {
+    const Snapshot s = sample(with_plastic);
+    const std::string path = (tempDir() / "frame.ply").string();
+    writePly(path, s);
+    EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+    const Snapshot r = readPly(path);
+    EXPECT_EQ(r.frame, s.frame);
+    EXPECT_DOUBLE_EQ(r.time, s.time);
+    EXPECT_EQ(r.grid.dimension, 2);
+    EXPECT_EQ(r.grid.cells, s.grid.cells);
+    EXPECT_DOUBLE_EQ(r.grid.cell_size, s.grid.cell_size);
+    EXPECT_DOUBLE_EQ(r.grid.critical_density, s.grid.critical_density);
+    EXPECT_EQ(r.grid.node_density, s.grid.node_density);
+    EXPECT_EQ(r.position, s.position);
+    EXPECT_EQ(r.velocity, s.velocity);
+    EXPECT_EQ(r.density, s.density);
+    EXPECT_EQ(r.plastic_j, s.plastic_j);
+  }
+}
+
+TEST(Ply, HeaderIsStandardBinaryPly) {
+  const std::string path = (tempDir() / "header.ply").string();
+  writePly(path, sample(false));
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "ply");
+  std::getline(in, line);
+  EXPECT_EQ(line, "format binary_little_endian 1.0");
+  const auto size = std::filesystem::file_size(path);
+  EXPECT_GT(size, 5u * 7u * 4u + 12u * 4u);
+}
+
+TEST(Ply, ForeignOrTruncatedFilesAreRejected) {
+  const std::string path = (tempDir() / "bad.ply").string();
+  std::ofstream(path) << "solid cube\n";
+  EXPECT_THROW(readPly(path), InputError);
+  writePly(path, sample(false));
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) - 10);
+  try {
+    readPly(path);
+    FAIL() << "a truncated file was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("shorter than its header says"), std::string::npos);
+  }
+  EXPECT_THROW(readPly((tempDir() / "missing.ply").string()), InputError);
+}
+
+TEST(Ply, UnwritablePathIsAnInputError) {
+  EXPECT_THROW(writePly("/proc/snowsim/frame.ply", sample(false)), InputError);
+}
+
+}  // namespace
+}  // namespace snowsim

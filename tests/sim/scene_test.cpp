@@ -1,1 +1,168 @@
+// Scene files: every kind of bad input gets a message naming the file, the field and what is
+// allowed; the generator reproduces the report's particle counts.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "sim/errors.h"
+#include "sim/sampling.h"
+#include "sim/scene.h"
+
+namespace snowsim {
+namespace {
+
+const std::string kMinimal = R"({
+  "name": "test",
+  "grid": {"cells": [10, 12], "cell_size": 0.01},
+  "bodies": [{"shape": "ball", "center": [0.05, 0.06], "radius": 0.01}]
+})";
+
+std::string writeTemp(const std::string& text) {
+  static int counter = 0;
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("snowsim_scene_test_" + std::to_string(getpid()) + "_" +
+                     std::to_string(counter++) + ".json");
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// The InputError message for a scene text with overrides, or "" when it loads.
+std::string errorOf(const std::string& text, const std::vector<std::string>& overrides = {}) {
+  const std::string path = writeTemp(text);
+  try {
+    loadScene(path, overrides);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Scene, MinimalSceneGetsTheReportDefaults) {
+  const Scene s = loadScene(writeTemp(kMinimal));
+  EXPECT_EQ(s.dimension, 2);
+  EXPECT_EQ(s.cells[0], 10);
+  EXPECT_EQ(s.cells[1], 12);
+  EXPECT_DOUBLE_EQ(s.cell_size, 0.01);
+  EXPECT_DOUBLE_EQ(s.dt, 0.001);
+  EXPECT_DOUBLE_EQ(s.density_hybrid.flip_alpha, 0.95);
+  EXPECT_DOUBLE_EQ(s.density_hybrid.critical_multiplier, 4.0);
+  EXPECT_EQ(s.bodies[0].particles_per_cell, 9);
+}
+
+TEST(Scene, MalformedJsonNamesFileLineAndColumn) {
+  const std::string message = errorOf("{\n  \"name\": \"x\",\n  \"grid\": {\"cells\": [10 12]}\n}");
+  EXPECT_NE(message.find(".json:3:"), std::string::npos) << message;
+  EXPECT_NE(message.find("malformed JSON"), std::string::npos) << message;
+}
+
+TEST(Scene, UnknownFieldSuggestsTheClosestName) {
+  std::string text = kMinimal;
+  text.replace(text.find("\"radius\""), 8, "\"raduis\"");
+  const std::string message = errorOf(text);
+  EXPECT_NE(message.find("bodies[0].raduis: unknown field; did you mean \"radius\"?"),
+            std::string::npos)
+      << message;
+}
+
+TEST(Scene, WrongTypeIsNamed) {
+  const std::string message = errorOf(kMinimal, {"time.dt=\"fast\""});
+  EXPECT_NE(message.find("time.dt: expected a number, found a string"), std::string::npos)
+      << message;
+}
+
+TEST(Scene, NegativeTimeStepIsOutOfRange) {
+  const std::string message = errorOf(kMinimal, {"time.dt=-0.001"});
+  EXPECT_NE(message.find("time.dt: -0.001 is out of range; allowed: (0, 10]"), std::string::npos)
+      << message;
+}
+
+TEST(Scene, BodyOutsideTheGridIsRejected) {
+  const std::string message = errorOf(kMinimal, {"bodies.0.center=[0.095,0.06]"});
+  EXPECT_NE(message.find("bodies[0].center: the body reaches outside the grid along axis x"),
+            std::string::npos)
+      << message;
+}
+
+TEST(Scene, ZeroCellsAreRejected) {
+  const std::string message = errorOf(kMinimal, {"grid.cells=[0,12]"});
+  EXPECT_NE(message.find("grid.cells: each entry must be a whole number from 1 to 4096"),
+            std::string::npos)
+      << message;
+}
+
+TEST(Scene, ParticlesPerCellMustFillALattice) {
+  const std::string message = errorOf(kMinimal, {"particles_per_cell=8"});
+  EXPECT_NE(message.find("particles_per_cell: 8 is not a square"), std::string::npos) << message;
+}
+
+TEST(Scene, UnknownSolverListsTheAllowedOnes) {
+  const std::string message = errorOf(kMinimal, {"solver=sph"});
+  EXPECT_NE(message.find("solver: \"sph\" is not allowed; allowed: \"density_hybrid\""),
+            std::string::npos)
+      << message;
+}
+
+TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
+  const Scene s = loadScene(writeTemp(kMinimal),
+                            {"time.dt=0.0005", "bodies.0.velocity=[1,2]", "name=renamed"});
+  EXPECT_DOUBLE_EQ(s.dt, 0.0005);
+  EXPECT_DOUBLE_EQ(s.bodies[0].velocity[1], 2);
+  EXPECT_EQ(s.name, "renamed");
+  const std::string message = errorOf(kMinimal, {"bodies.3.radius=0.01"});
+  EXPECT_NE(message.find("no element 3 (the array has 1)"), std::string::npos) << message;
+}
+
+TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {
+  const std::string message =
+      errorOf(R"({"name": "t", "grid": {"cells": [4, 4, 4]},
+                  "bodies": [{"shape": "ball", "center": [0.02, 0.02, 0.02], "radius": 0.01}]})");
+  EXPECT_NE(message.find("grid.cells: has 3 entries but the scene's dimension is 2"),
+            std::string::npos)
+      << message;
+}
+
+// Table 1 of the report: particle counts on its 10x12x1 grid at 27 particles per cell.
+struct TableRow {
+  const char* scene;
+  int report_count;
+};
+
+class Table1Counts : public ::testing::TestWithParam<TableRow> {};
+
+TEST_P(Table1Counts, SlabReproducesTheReportWithinFivePercent) {
+  const TableRow row = GetParam();
+  const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + row.scene + ".json";
+  const Scene slab = loadScene(path, {"dimension=3"});
+  ASSERT_EQ(slab.cells[2], 1);
+  const int count = sampleBodies<3>(slab).size();
+  EXPECT_NEAR(count, row.report_count, 0.05 * row.report_count) << row.scene;
+
+  // The same scene in true 2D has a third of the particles: one lattice layer instead of three.
+  const Scene flat = loadScene(path);
+  EXPECT_EQ(3 * sampleBodies<2>(flat).size(), count) << row.scene;
+}
+
+INSTANTIATE_TEST_SUITE_P(Report, Table1Counts,
+                         ::testing::Values(TableRow{"snowball_drop", 76},
+                                           TableRow{"snow_column", 216},
+                                           TableRow{"column_with_ball", 290},
+                                           TableRow{"column_thrown_ball", 290},
+                                           TableRow{"column_thrown_half_ball", 290},
+                                           TableRow{"colliding_snowballs", 148}),
+                         [](const auto& info) { return std::string(info.param.scene); });
+
+TEST(Scene, EveryShippedSceneLoads) {
+  int scenes = 0;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/scenes")) {
+    if (entry.path().extension() != ".json" || entry.path().stem() == "figures") continue;
+    EXPECT_NO_THROW(loadScene(entry.path().string())) << entry.path();
+    ++scenes;
+  }
+  EXPECT_GE(scenes, 12);
+}
+
+}  // namespace
+}  // namespace snowsim

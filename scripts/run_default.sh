@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Installs what snowsim needs, builds it and renders the default scene (the report's Fig. 1,
+# a snowball dropped on the ground) into out/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+bash scripts/build.sh
+./build/app/snowsim run scenes/snowball_drop.json -o out
+echo "snowsim: frames and run.json written to $(pwd)/out"

@@ -100,9 +100,10 @@ template <int D>
 void printTable() {
   std::printf("Readings on %s (column starts 38.3 mm tall, the ball 19 mm across)\n\n",
               D == 2 ? "true 2D" : "the 10x12x1 slab");
-  std::printf("| reading (critical reference, walls, FLIP from) | column top at 0.5 s, x2 / x4 / "
-              "x8 (mm) | x2 > x4 > x8 | drop: pile top at 1 s (mm) | Fig. 8 (passes at dt "
-              "0.01 only) | equal balls: dense lands later by |\n|---|---|---|---|---|---|\n");
+  std::printf(
+      "| reading (critical reference, walls, FLIP from) | column top at 0.5 s, x2 / x4 / "
+      "x8 (mm) | x2 > x4 > x8 | drop: pile top at 1 s (mm) | Fig. 8 (passes at dt "
+      "0.01 only) | equal balls: dense lands later by |\n|---|---|---|---|---|---|\n");
   for (const char* reference : {"particle_mass_per_cell", "rest_density"})
     for (const char* walls : {"hold_grid", "slip_grid", "particles_only"})
       for (const char* flip : {"rasterised", "equalised"}) {

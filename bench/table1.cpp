@@ -41,7 +41,8 @@ double medianSeconds(const std::string& path, int dimension, double duration, in
     const auto start = std::chrono::steady_clock::now();
     auto simulation = makeSimulation(scene);
     simulation->advanceTo(duration);
-    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    times.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     *particles = simulation->particleCount();
   }
   std::sort(times.begin(), times.end());
@@ -52,8 +53,9 @@ double medianSeconds(const std::string& path, int dimension, double duration, in
 
 int main(int argc, char** argv) {
   const int repeats = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
-  std::printf("| scene | particles (report / ours) | simulated s | report s | ours, slab s | "
-              "speed-up | ours, true 2D s |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| scene | particles (report / ours) | simulated s | report s | ours, slab s | "
+      "speed-up | ours, true 2D s |\n|---|---|---|---|---|---|---|\n");
   for (const Row& row : kTable) {
     const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + row.scene + ".json";
     for (int k = 0; k < 4; ++k) {

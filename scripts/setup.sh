@@ -6,8 +6,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config clang-format
-  # sim/: linear algebra and threads
-  libeigen3-dev libomp-dev
+  # sim/: linear algebra (OpenMP comes with g++)
+  libeigen3-dev
   # scene files and the command line
   nlohmann-json3-dev libcli11-dev
   # render/: off-screen OpenGL, maths, image and video files

@@ -30,7 +30,8 @@ Result runSnowsim(const std::string& args) {
 }
 
 fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("snowsim_cli_" + std::to_string(getpid())) / name;
+  const fs::path dir =
+      fs::temp_directory_path() / ("snowsim_cli_" + std::to_string(getpid())) / name;
   fs::remove_all(dir);
   return dir;
 }

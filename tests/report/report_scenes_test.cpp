@@ -181,7 +181,8 @@ std::string fileBytes(const std::string& path) {
 }
 
 TEST(ReportScenes, SameSceneTwiceGivesBitIdenticalPly) {
-  const auto dir = std::filesystem::temp_directory_path() / ("snowsim_det_" + std::to_string(getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("snowsim_det_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   std::string bytes[2];
   for (int k = 0; k < 2; ++k) {

@@ -37,8 +37,12 @@ void checkAxisWeights() {
   }
 }
 
-TEST(BSpline, QuadraticWeightsSumToOneGradientsToZero) { checkAxisWeights<QuadraticBSpline>(); }
-TEST(BSpline, CubicWeightsSumToOneGradientsToZero) { checkAxisWeights<CubicBSpline>(); }
+TEST(BSpline, QuadraticWeightsSumToOneGradientsToZero) {
+  checkAxisWeights<QuadraticBSpline>();
+}
+TEST(BSpline, CubicWeightsSumToOneGradientsToZero) {
+  checkAxisWeights<CubicBSpline>();
+}
 
 TEST(BSpline, CubicMatchesThePaperFormula) {
   // Stomakhin et al. 2013, eq. 5, at a few hand-checked points.
@@ -70,10 +74,18 @@ void checkStencil() {
   }
 }
 
-TEST(BSpline, StencilPartitionOfUnity2DQuadratic) { checkStencil<2, QuadraticBSpline>(); }
-TEST(BSpline, StencilPartitionOfUnity2DCubic) { checkStencil<2, CubicBSpline>(); }
-TEST(BSpline, StencilPartitionOfUnity3DQuadratic) { checkStencil<3, QuadraticBSpline>(); }
-TEST(BSpline, StencilPartitionOfUnity3DCubic) { checkStencil<3, CubicBSpline>(); }
+TEST(BSpline, StencilPartitionOfUnity2DQuadratic) {
+  checkStencil<2, QuadraticBSpline>();
+}
+TEST(BSpline, StencilPartitionOfUnity2DCubic) {
+  checkStencil<2, CubicBSpline>();
+}
+TEST(BSpline, StencilPartitionOfUnity3DQuadratic) {
+  checkStencil<3, QuadraticBSpline>();
+}
+TEST(BSpline, StencilPartitionOfUnity3DCubic) {
+  checkStencil<3, CubicBSpline>();
+}
 
 }  // namespace
 }  // namespace snowsim

@@ -111,9 +111,9 @@ TEST(DensityHybrid, RasterisationConservesMassAndMomentum) {
 TEST(DensityHybrid, GroundTakesOnlyTheDownwardVelocityOfParticlesAtOrBelowIt) {
   Scene scene = ballScene();
   Particles<2> particles;
-  particles.add(Vec<2>(0.05, 0.0), Vec<2>(0.3, -1.0), 1e-3, 0);   // on the ground, falling
-  particles.add(Vec<2>(0.06, 0.0), Vec<2>(0.3, 0.5), 1e-3, 0);    // on the ground, rising
-  particles.add(Vec<2>(0.07, 0.001), Vec<2>(0.3, -1.0), 1e-3, 0); // above the ground
+  particles.add(Vec<2>(0.05, 0.0), Vec<2>(0.3, -1.0), 1e-3, 0);    // on the ground, falling
+  particles.add(Vec<2>(0.06, 0.0), Vec<2>(0.3, 0.5), 1e-3, 0);     // on the ground, rising
+  particles.add(Vec<2>(0.07, 0.001), Vec<2>(0.3, -1.0), 1e-3, 0);  // above the ground
   DensityHybridSolver<2> solver(scene, particles);
   solver.collideWithGround();
   const auto& v = solver.particles().v;

@@ -11,7 +11,8 @@ namespace snowsim {
 namespace {
 
 std::filesystem::path tempDir() {
-  auto dir = std::filesystem::temp_directory_path() / ("snowsim_ply_test_" + std::to_string(getpid()));
+  auto dir =
+      std::filesystem::temp_directory_path() / ("snowsim_ply_test_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   return dir;
 }

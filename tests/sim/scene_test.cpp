@@ -21,9 +21,9 @@ const std::string kMinimal = R"({
 
 std::string writeTemp(const std::string& text) {
   static int counter = 0;
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("snowsim_scene_test_" + std::to_string(getpid()) + "_" +
-                     std::to_string(counter++) + ".json");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("snowsim_scene_test_" + std::to_string(getpid()) +
+                                                "_" + std::to_string(counter++) + ".json");
   std::ofstream(path) << text;
   return path.string();
 }
@@ -105,8 +105,8 @@ TEST(Scene, UnknownSolverListsTheAllowedOnes) {
 }
 
 TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
-  const Scene s = loadScene(writeTemp(kMinimal),
-                            {"time.dt=0.0005", "bodies.0.velocity=[1,2]", "name=renamed"});
+  const Scene s =
+      loadScene(writeTemp(kMinimal), {"time.dt=0.0005", "bodies.0.velocity=[1,2]", "name=renamed"});
   EXPECT_DOUBLE_EQ(s.dt, 0.0005);
   EXPECT_DOUBLE_EQ(s.bodies[0].velocity[1], 2);
   EXPECT_EQ(s.name, "renamed");
@@ -115,8 +115,7 @@ TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
 }
 
 TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {
-  const std::string message =
-      errorOf(R"({"name": "t", "grid": {"cells": [4, 4, 4]},
+  const std::string message = errorOf(R"({"name": "t", "grid": {"cells": [4, 4, 4]},
                   "bodies": [{"shape": "ball", "center": [0.02, 0.02, 0.02], "radius": 0.01}]})");
   EXPECT_NE(message.find("grid.cells: has 3 entries but the scene's dimension is 2"),
             std::string::npos)

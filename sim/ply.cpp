@@ -33,6 +33,7 @@ void writePly(const std::string& path, const Snapshot& s) {
          << "comment snowsim cells " << s.grid.cells[0] << " " << s.grid.cells[1] << " "
          << s.grid.cells[2] << "\n"
          << "comment snowsim cell_size " << s.grid.cell_size << "\n"
+         << "comment snowsim particle_spacing " << s.grid.particle_spacing << "\n"
          << "comment snowsim critical_density " << s.grid.critical_density << "\n"
          << "element vertex " << s.size() << "\n";
   const auto properties = vertexProperties(s);
@@ -90,6 +91,8 @@ Snapshot readPly(const std::string& path) {
         words >> s.grid.cells[0] >> s.grid.cells[1] >> s.grid.cells[2];
       else if (key == "cell_size")
         words >> s.grid.cell_size;
+      else if (key == "particle_spacing")
+        words >> s.grid.particle_spacing;
       else if (key == "critical_density")
         words >> s.grid.critical_density;
     } else if (word == "element") {

@@ -24,6 +24,12 @@ bool bodyContains(const Body& body, const Vec3& p, int shape_dimension) {
   return false;
 }
 
+double particleSpacing(const Scene& scene, const Body& body) {
+  const double per_axis =
+      std::round(std::pow(body.particles_per_cell, 1.0 / scene.authored_dimension));
+  return scene.cell_size / per_axis;
+}
+
 template <int D>
 Particles<D> sampleBodies(const Scene& scene) {
   Particles<D> particles;
@@ -31,8 +37,7 @@ Particles<D> sampleBodies(const Scene& scene) {
   const int shape_dim = scene.authored_dimension;
   for (size_t b = 0; b < scene.bodies.size(); ++b) {
     const Body& body = scene.bodies[b];
-    const int n = static_cast<int>(std::lround(std::pow(body.particles_per_cell, 1.0 / shape_dim)));
-    const double spacing = h / n;
+    const double spacing = particleSpacing(scene, body);
     // Every particle stands for an equal share of its cell's volume (for 2D, per metre of depth).
     const double mass = body.density * std::pow(spacing, D);
 

@@ -39,6 +39,9 @@ class SimulationOf final : public Simulation {
     s.grid.dimension = D;
     for (int a = 0; a < 3; ++a) s.grid.cells[a] = a < D ? scene_.cells[a] : 1;
     s.grid.cell_size = scene_.cell_size;
+    s.grid.particle_spacing = scene_.cell_size;
+    for (const Body& body : scene_.bodies)
+      s.grid.particle_spacing = std::min(s.grid.particle_spacing, particleSpacing(scene_, body));
     const Particles<D>& p = solver_->particles();
     s.position.resize(p.size());
     s.velocity.resize(p.size());

@@ -12,6 +12,7 @@ struct GridInfo {
   int dimension = 2;
   std::array<int, 3> cells{1, 1, 1};  // cells along x, y, z (z = 1 in 2D)
   double cell_size = 0;
+  double particle_spacing = 0;  // lattice spacing the particles were generated at (smallest body)
   double critical_density = 0;  // density at which a cell counts as packed (0: not defined)
   // 2D runs: density m_i / h^2 at each node of the domain ((cells[0]+1) x (cells[1]+1), x
   // fastest); node (i, j) sits at (i h, j h) and stands for the cell of side h centred there.

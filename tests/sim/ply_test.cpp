@@ -24,6 +24,7 @@ Snapshot sample(bool with_plastic) {
   s.grid.dimension = 2;
   s.grid.cells = {3, 2, 1};
   s.grid.cell_size = 0.01;
+  s.grid.particle_spacing = 0.01 / 3;
   s.grid.critical_density = 123.5;
   s.grid.node_density = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
   for (int i = 0; i < 5; ++i) {
@@ -47,6 +48,7 @@ TEST(Ply, RoundTripsEveryField) {
     EXPECT_EQ(r.grid.dimension, 2);
     EXPECT_EQ(r.grid.cells, s.grid.cells);
     EXPECT_DOUBLE_EQ(r.grid.cell_size, s.grid.cell_size);
+    EXPECT_DOUBLE_EQ(r.grid.particle_spacing, s.grid.particle_spacing);
     EXPECT_DOUBLE_EQ(r.grid.critical_density, s.grid.critical_density);
     EXPECT_EQ(r.grid.node_density, s.grid.node_density);
     EXPECT_EQ(r.position, s.position);

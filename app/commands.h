@@ -7,5 +7,6 @@
 namespace snowsim {
 
 void addRunCommand(CLI::App& app);
+void addRenderCommand(CLI::App& app);
 
 }  // namespace snowsim

@@ -9,6 +9,7 @@
 
 #include "app/commands.h"
 #include "app/frame_sink.h"
+#include "app/png_sink.h"
 #include "sim/errors.h"
 #include "sim/files.h"
 #include "sim/ply.h"
@@ -23,6 +24,8 @@ struct RunOptions {
   std::string out = "out";
   std::vector<std::string> overrides;
   bool ply = true;
+  bool png = true;
+  RenderOptions render;
 };
 
 class PlySink final : public FrameSink {
@@ -58,11 +61,13 @@ class Progress {
 
 void run(const RunOptions& options) {
   const Scene scene = loadScene(options.scene, options.overrides);
+  const RenderSettings render = options.render.settings();  // checked before anything is written
   prepareOutputDirectory(options.out);
   auto simulation = makeSimulation(scene);
 
   FrameSinks sinks;
   if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
+  if (options.png) sinks.push_back(std::make_unique<PngSink>(options.out, render));
 
   const auto start = std::chrono::steady_clock::now();
   const int frames = scene.frameCount();
@@ -102,8 +107,11 @@ void addRunCommand(CLI::App& app) {
                   "Override a scene field by its dotted path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] (repeatable)");
   cmd->add_flag("!--no-ply", options->ply, "Do not write the per-frame PLY files");
+  cmd->add_flag("!--no-png", options->png, "Do not render the per-frame PNG images");
+  options->render.addTo(*cmd);
   cmd->footer(
-      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density) and run.json "
+      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
+      "(the particles as shaded spheres over the grid) and run.json "
       "(steps, simulated time, wall time, particle count, dimension).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged.");
   cmd->callback([options] { run(*options); });

@@ -47,6 +47,7 @@ TEST(Cli, RunWritesPlyFramesAndASummary) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_00000.ply"));
   EXPECT_TRUE(fs::exists(out / "frame_00005.ply"));
+  EXPECT_TRUE(fs::exists(out / "frame_00005.png"));
   EXPECT_FALSE(fs::exists(out / "frame_00006.ply"));
   const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
   EXPECT_EQ(summary["steps"], 100);
@@ -80,6 +81,22 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
                  "outside the grid");
   expectRejected("run " + scene("snowball_drop") + " --set time.dt", "expected key=value");
   expectRejected("run missing.json", "missing.json");
+  expectRejected("run " + scene("snowball_drop") + " --color-by temperature",
+                 "allowed: white, density, speed");
+  expectRejected("run " + scene("snowball_drop") + " --width 0", "out of range");
+}
+
+TEST(Cli, RenderRedrawsSavedFrames) {
+  const fs::path out = freshDir("render");
+  ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                       " --set time.duration=0.04 --no-png")
+                .code,
+            0);
+  EXPECT_FALSE(fs::exists(out / "frame_00000.png"));
+  const Result r =
+      runSnowsim("render " + out.string() + " --color-by density --width 200 --height 100");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
 }
 
 TEST(Cli, UnwritableOutputDirectoryIsBadInput) {

@@ -116,3 +116,27 @@ TEST(Cli, HelpDescribesEachSubcommand) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
+  const fs::path out = freshDir("figure");
+  const Result r = runSnowsim("figure fig6 -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path png = out / "fig6.png";
+  ASSERT_TRUE(fs::exists(png));
+  // Three rows of one 320x352 panel, each with a label strip: a tall, narrow image.
+  std::ifstream in(png, std::ios::binary);
+  unsigned char header[24];
+  in.read(reinterpret_cast<char*>(header), 24);
+  const int width = header[16] << 24 | header[17] << 16 | header[18] << 8 | header[19];
+  const int height = header[20] << 24 | header[21] << 16 | header[22] << 8 | header[23];
+  EXPECT_EQ(width, 320 + 2 * 8);
+  EXPECT_EQ(height, 8 + 3 * (352 + 34 + 8));
+
+  const Result unknown = runSnowsim("figure fig9 -o " + out.string());
+  EXPECT_EQ(unknown.code, 2);
+  EXPECT_NE(unknown.output.find("allowed: fig1"), std::string::npos) << unknown.output;
+}
+
+}  // namespace

@@ -12,7 +12,9 @@ Vec3 Scene::extent() const {
   return {cells[0] * cell_size, cells[1] * cell_size, dimension == 3 ? cells[2] * cell_size : 0};
 }
 
-int Scene::frameCount() const { return static_cast<int>(std::lround(duration * fps)); }
+int Scene::frameCount() const {
+  return static_cast<int>(std::lround(duration * fps));
+}
 
 Json readJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -26,13 +28,16 @@ Json readJsonFile(const std::string& path) {
     // Turn the byte offset into a line and column.
     int line = 1, column = 1;
     for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n') line++, column = 1;
-      else column++;
+      if (text[i] == '\n')
+        line++, column = 1;
+      else
+        column++;
     }
     std::string what = e.what();
     const auto colon = what.find("syntax error");
-    throw InputError(path + ":" + std::to_string(line) + ":" + std::to_string(column) +
-                     ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+    throw InputError(
+        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
+        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
   }
 }
 
@@ -86,22 +91,100 @@ DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
   JsonFields f(*j, "density_hybrid", file);
   p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
   p.critical_multiplier = f.number("critical_multiplier", p.critical_multiplier, 0, 1e6, true);
-  const auto reference = f.choice("critical_reference", {"rest_density", "particle_mass_per_cell"},
-                                  "rest_density");
+  const auto reference =
+      f.choice("critical_reference", {"rest_density", "particle_mass_per_cell"}, "rest_density");
   p.critical_reference = reference == "rest_density" ? CriticalReference::RestDensity
                                                      : CriticalReference::ParticleMassPerCell;
   const auto walls = f.choice("walls", {"hold_grid", "slip_grid", "particles_only"}, "hold_grid");
   p.walls = walls == "hold_grid"   ? WallRule::HoldGrid
             : walls == "slip_grid" ? WallRule::SlipGrid
                                    : WallRule::ParticlesOnly;
-  p.flip_reference = f.choice("flip_reference", {"rasterised", "equalised"}, "rasterised") ==
-                             "rasterised"
-                         ? FlipReference::Rasterised
-                         : FlipReference::Equalised;
+  p.flip_reference =
+      f.choice("flip_reference", {"rasterised", "equalised"}, "rasterised") == "rasterised"
+          ? FlipReference::Rasterised
+          : FlipReference::Equalised;
   p.kernel = f.choice("kernel", {"cubic", "quadratic"}, "cubic") == "cubic" ? KernelType::Cubic
                                                                             : KernelType::Quadratic;
   f.finish();
   return p;
+}
+
+ColliderType parseColliderType(JsonFields& f, const std::string& key, const std::string& fallback) {
+  const auto t = f.choice(key, {"sticky", "slip", "separating"}, fallback);
+  return t == "sticky" ? ColliderType::Sticky
+         : t == "slip" ? ColliderType::Slip
+                       : ColliderType::Separating;
+}
+
+MpmParams parseMpm(const Json* j, const std::string& file) {
+  MpmParams p;
+  if (!j) return p;
+  JsonFields f(*j, "mpm", file);
+  const auto transfer = f.choice("transfer", {"pic_flip", "apic", "mls"}, "mls");
+  p.transfer = transfer == "pic_flip" ? MpmTransfer::PicFlip
+               : transfer == "apic"   ? MpmTransfer::Apic
+                                      : MpmTransfer::Mls;
+  p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
+  p.kernel = f.choice("kernel", {"quadratic", "cubic"}, "quadratic") == "quadratic"
+                 ? KernelType::Quadratic
+                 : KernelType::Cubic;
+  const auto integrator = f.choice("integrator", {"explicit", "semi_implicit"}, "explicit");
+  if (integrator == "semi_implicit")
+    f.fail("integrator", "semi_implicit is not available in this build yet; allowed: explicit");
+  p.integrator = MpmIntegrator::Explicit;
+  p.cfl = f.number("cfl", p.cfl, 0, 1, true);
+  p.adaptive_dt = f.boolean("adaptive_dt", p.adaptive_dt);
+  if (const Json* walls = f.object("walls", false)) {
+    JsonFields w(*walls, "mpm.walls", file);
+    p.wall_type = parseColliderType(w, "type", "separating");
+    p.wall_friction = w.number("friction", p.wall_friction, 0, 1e3);
+    w.finish();
+  }
+  f.finish();
+  return p;
+}
+
+MaterialParams parseMaterial(const Json* j, const std::string& file) {
+  MaterialParams m;
+  if (!j) return m;
+  JsonFields f(*j, "material", file);
+  m.E0 = f.number("E0", m.E0, 0, 1e12, true);
+  m.nu = f.number("nu", m.nu, -1, 0.5, true, true);
+  m.theta_c = f.number("theta_c", m.theta_c, 0, 1, true, true);
+  m.theta_s = f.number("theta_s", m.theta_s, 0, 1, true, true);
+  m.xi = f.number("xi", m.xi, 0, 1e3);
+  f.finish();
+  return m;
+}
+
+ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
+  JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
+  const std::vector<int> dims{scene.authored_dimension};
+  ColliderParams c;
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box"}, std::nullopt);
+  c.shape = shape == "half_space" ? ColliderShape::HalfSpace
+            : shape == "sphere"   ? ColliderShape::Sphere
+                                  : ColliderShape::Box;
+  c.position = toVec3(f.numbers("position", std::nullopt, dims));
+  if (c.shape == ColliderShape::HalfSpace) {
+    c.normal = toVec3(f.numbers("normal", std::nullopt, dims));
+    double n2 = 0;
+    for (double x : c.normal) n2 += x * x;
+    if (!(n2 > 0)) f.fail("normal", "must not be the zero vector");
+    for (double& x : c.normal) x /= std::sqrt(n2);
+  } else if (c.shape == ColliderShape::Sphere) {
+    c.radius = f.number("radius", std::nullopt);
+    if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
+  } else {
+    c.size = toVec3(f.numbers("size", std::nullopt, dims));
+    for (int a = 0; a < scene.authored_dimension; ++a)
+      if (!(c.size[a] > 0)) f.fail("size", "every extent must be positive; allowed: (0, inf) m");
+  }
+  c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+  c.type = parseColliderType(f, "type", "separating");
+  c.friction = f.number("friction", c.friction, 0, 1e3);
+  f.finish();
+  return c;
 }
 
 bool isPerfectPower(int n, int dim, int& root) {
@@ -120,7 +203,9 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
   Body b;
   b.name = f.string("name", "body" + std::to_string(index));
   const auto shape = f.choice("shape", {"ball", "box", "half_ball"}, std::nullopt);
-  b.shape = shape == "ball" ? BodyShape::Ball : shape == "box" ? BodyShape::Box : BodyShape::HalfBall;
+  b.shape = shape == "ball"  ? BodyShape::Ball
+            : shape == "box" ? BodyShape::Box
+                             : BodyShape::HalfBall;
   b.center = toVec3(f.numbers("center", std::nullopt, dims));
   if (b.shape == BodyShape::Box) {
     b.size = toVec3(f.numbers("size", std::nullopt, dims));
@@ -140,11 +225,10 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
   b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);
   int root;
   if (!isPerfectPower(b.particles_per_cell, scene.authored_dimension, root))
-    f.fail("particles_per_cell", std::to_string(b.particles_per_cell) + " is not a " +
-                                     (scene.authored_dimension == 2 ? "square" : "cube") +
-                                     "; allowed: " +
-                                     (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..."
-                                                                    : "1, 8, 27, 64, ..."));
+    f.fail("particles_per_cell",
+           std::to_string(b.particles_per_cell) + " is not a " +
+               (scene.authored_dimension == 2 ? "square" : "cube") + "; allowed: " +
+               (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ..."));
   b.density = f.number("density", b.density, 0, 1e6, true);
   f.finish();
 
@@ -154,8 +238,9 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
     const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
     if (b.center[a] - half < -1e-12 || b.center[a] + half > extent[a] + 1e-12) {
       std::ostringstream s;
-      s << "the body reaches outside the grid along axis " << "xyz"[a] << " ([" << b.center[a] - half
-        << ", " << b.center[a] + half << "] m; the grid spans [0, " << extent[a] << "] m)";
+      s << "the body reaches outside the grid along axis "
+        << "xyz"[a] << " ([" << b.center[a] - half << ", " << b.center[a] + half
+        << "] m; the grid spans [0, " << extent[a] << "] m)";
       f.fail("center", s.str());
     }
   }
@@ -190,14 +275,20 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.cell_size = g.number("cell_size", 0.01, 0, 1e3, true);
   g.finish();
 
-  s.gravity = toVec3(f.numbers("gravity", s.authored_dimension == 2
-                                              ? std::vector<double>{0, -9.81}
-                                              : std::vector<double>{0, -9.81, 0},
-                               {s.authored_dimension}));
+  s.gravity = toVec3(f.numbers(
+      "gravity",
+      s.authored_dimension == 2 ? std::vector<double>{0, -9.81} : std::vector<double>{0, -9.81, 0},
+      {s.authored_dimension}));
 
-  f.choice("solver", {"density_hybrid"}, "density_hybrid");
-  s.solver = SolverType::DensityHybrid;
+  s.solver = f.choice("solver", {"density_hybrid", "mpm"}, "density_hybrid") == "mpm"
+                 ? SolverType::Mpm
+                 : SolverType::DensityHybrid;
   s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
+  s.mpm = parseMpm(f.object("mpm", false), file);
+  s.material = parseMaterial(f.object("material", false), file);
+  if (const Json* colliders = f.array("colliders", false))
+    for (size_t i = 0; i < colliders->size(); ++i)
+      s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));
 
   const Json* time = f.object("time", false);
   JsonFields t(time ? *time : empty, "time", file);
@@ -206,7 +297,8 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.fps = t.number("fps", 50, 0, 1e4, true);
   t.finish();
 
-  const int default_ppc = f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
+  const int default_ppc =
+      f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
   const Json* bodies = f.array("bodies", true);
   if (bodies->empty()) f.fail("bodies", "needs at least one body");
   for (size_t i = 0; i < bodies->size(); ++i)

@@ -12,9 +12,7 @@ Vec3 Scene::extent() const {
   return {cells[0] * cell_size, cells[1] * cell_size, dimension == 3 ? cells[2] * cell_size : 0};
 }
 
-int Scene::frameCount() const {
-  return static_cast<int>(std::lround(duration * fps));
-}
+int Scene::frameCount() const { return static_cast<int>(std::lround(duration * fps)); }
 
 Json readJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -28,16 +26,13 @@ Json readJsonFile(const std::string& path) {
     // Turn the byte offset into a line and column.
     int line = 1, column = 1;
     for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n')
-        line++, column = 1;
-      else
-        column++;
+      if (text[i] == '\n') line++, column = 1;
+      else column++;
     }
     std::string what = e.what();
     const auto colon = what.find("syntax error");
-    throw InputError(
-        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
-        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+    throw InputError(path + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                     ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
   }
 }
 
@@ -91,18 +86,18 @@ DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
   JsonFields f(*j, "density_hybrid", file);
   p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
   p.critical_multiplier = f.number("critical_multiplier", p.critical_multiplier, 0, 1e6, true);
-  const auto reference =
-      f.choice("critical_reference", {"rest_density", "particle_mass_per_cell"}, "rest_density");
+  const auto reference = f.choice("critical_reference", {"rest_density", "particle_mass_per_cell"},
+                                  "rest_density");
   p.critical_reference = reference == "rest_density" ? CriticalReference::RestDensity
                                                      : CriticalReference::ParticleMassPerCell;
   const auto walls = f.choice("walls", {"hold_grid", "slip_grid", "particles_only"}, "hold_grid");
   p.walls = walls == "hold_grid"   ? WallRule::HoldGrid
             : walls == "slip_grid" ? WallRule::SlipGrid
                                    : WallRule::ParticlesOnly;
-  p.flip_reference =
-      f.choice("flip_reference", {"rasterised", "equalised"}, "rasterised") == "rasterised"
-          ? FlipReference::Rasterised
-          : FlipReference::Equalised;
+  p.flip_reference = f.choice("flip_reference", {"rasterised", "equalised"}, "rasterised") ==
+                             "rasterised"
+                         ? FlipReference::Rasterised
+                         : FlipReference::Equalised;
   p.kernel = f.choice("kernel", {"cubic", "quadratic"}, "cubic") == "cubic" ? KernelType::Cubic
                                                                             : KernelType::Quadratic;
   f.finish();
@@ -203,9 +198,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
   Body b;
   b.name = f.string("name", "body" + std::to_string(index));
   const auto shape = f.choice("shape", {"ball", "box", "half_ball"}, std::nullopt);
-  b.shape = shape == "ball"  ? BodyShape::Ball
-            : shape == "box" ? BodyShape::Box
-                             : BodyShape::HalfBall;
+  b.shape = shape == "ball" ? BodyShape::Ball : shape == "box" ? BodyShape::Box : BodyShape::HalfBall;
   b.center = toVec3(f.numbers("center", std::nullopt, dims));
   if (b.shape == BodyShape::Box) {
     b.size = toVec3(f.numbers("size", std::nullopt, dims));
@@ -225,10 +218,11 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
   b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);
   int root;
   if (!isPerfectPower(b.particles_per_cell, scene.authored_dimension, root))
-    f.fail("particles_per_cell",
-           std::to_string(b.particles_per_cell) + " is not a " +
-               (scene.authored_dimension == 2 ? "square" : "cube") + "; allowed: " +
-               (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ..."));
+    f.fail("particles_per_cell", std::to_string(b.particles_per_cell) + " is not a " +
+                                     (scene.authored_dimension == 2 ? "square" : "cube") +
+                                     "; allowed: " +
+                                     (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..."
+                                                                    : "1, 8, 27, 64, ..."));
   b.density = f.number("density", b.density, 0, 1e6, true);
   f.finish();
 
@@ -238,9 +232,8 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
     const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
     if (b.center[a] - half < -1e-12 || b.center[a] + half > extent[a] + 1e-12) {
       std::ostringstream s;
-      s << "the body reaches outside the grid along axis "
-        << "xyz"[a] << " ([" << b.center[a] - half << ", " << b.center[a] + half
-        << "] m; the grid spans [0, " << extent[a] << "] m)";
+      s << "the body reaches outside the grid along axis " << "xyz"[a] << " ([" << b.center[a] - half
+        << ", " << b.center[a] + half << "] m; the grid spans [0, " << extent[a] << "] m)";
       f.fail("center", s.str());
     }
   }
@@ -275,10 +268,10 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.cell_size = g.number("cell_size", 0.01, 0, 1e3, true);
   g.finish();
 
-  s.gravity = toVec3(f.numbers(
-      "gravity",
-      s.authored_dimension == 2 ? std::vector<double>{0, -9.81} : std::vector<double>{0, -9.81, 0},
-      {s.authored_dimension}));
+  s.gravity = toVec3(f.numbers("gravity", s.authored_dimension == 2
+                                              ? std::vector<double>{0, -9.81}
+                                              : std::vector<double>{0, -9.81, 0},
+                               {s.authored_dimension}));
 
   s.solver = f.choice("solver", {"density_hybrid", "mpm"}, "density_hybrid") == "mpm"
                  ? SolverType::Mpm
@@ -297,8 +290,7 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.fps = t.number("fps", 50, 0, 1e4, true);
   t.finish();
 
-  const int default_ppc =
-      f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
+  const int default_ppc = f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
   const Json* bodies = f.array("bodies", true);
   if (bodies->empty()) f.fail("bodies", "needs at least one body");
   for (size_t i = 0; i < bodies->size(); ++i)

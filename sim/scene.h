@@ -33,8 +33,8 @@ enum class FlipReference {
 };
 
 struct DensityHybridParams {
-  double flip_alpha = 0.95;          // PIC/FLIP blend: 0 pure PIC, 1 pure FLIP
-  double critical_multiplier = 4.0;  // critical density = multiplier x reference density
+  double flip_alpha = 0.95;           // PIC/FLIP blend: 0 pure PIC, 1 pure FLIP
+  double critical_multiplier = 4.0;   // critical density = multiplier x reference density
   CriticalReference critical_reference = CriticalReference::RestDensity;
   WallRule walls = WallRule::HoldGrid;
   FlipReference flip_reference = FlipReference::Rasterised;
@@ -77,13 +77,13 @@ struct ColliderParams {
 struct Body {
   std::string name;
   BodyShape shape = BodyShape::Ball;
-  Vec3 center{};                // ball and half ball centre, box centre (m)
-  double radius = 0;            // ball and half ball (m)
-  Vec3 size{};                  // box extents (m)
-  Vec3 cut_normal{0, 1, 0};     // half ball: keeps the points with (x - center) . n >= 0
-  Vec3 velocity{};              // initial velocity (m/s)
+  Vec3 center{};            // ball and half ball centre, box centre (m)
+  double radius = 0;        // ball and half ball (m)
+  Vec3 size{};              // box extents (m)
+  Vec3 cut_normal{0, 1, 0}; // half ball: keeps the points with (x - center) . n >= 0
+  Vec3 velocity{};          // initial velocity (m/s)
   int particles_per_cell = 27;  // particles per cell of the scene's authored dimension
-  double density = 400;         // kg/m^3
+  double density = 400;     // kg/m^3
 };
 
 struct Scene {

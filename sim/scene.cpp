@@ -109,6 +109,84 @@ DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
   return p;
 }
 
+ColliderType parseColliderType(JsonFields& f, const std::string& key, const std::string& fallback) {
+  const auto t = f.choice(key, {"sticky", "slip", "separating"}, fallback);
+  return t == "sticky" ? ColliderType::Sticky
+         : t == "slip" ? ColliderType::Slip
+                       : ColliderType::Separating;
+}
+
+MpmParams parseMpm(const Json* j, const std::string& file) {
+  MpmParams p;
+  if (!j) return p;
+  JsonFields f(*j, "mpm", file);
+  const auto transfer = f.choice("transfer", {"pic_flip", "apic", "mls"}, "mls");
+  p.transfer = transfer == "pic_flip" ? MpmTransfer::PicFlip
+               : transfer == "apic"   ? MpmTransfer::Apic
+                                      : MpmTransfer::Mls;
+  p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
+  p.kernel = f.choice("kernel", {"quadratic", "cubic"}, "quadratic") == "quadratic"
+                 ? KernelType::Quadratic
+                 : KernelType::Cubic;
+  const auto integrator = f.choice("integrator", {"explicit", "semi_implicit"}, "explicit");
+  if (integrator == "semi_implicit")
+    f.fail("integrator", "semi_implicit is not available in this build yet; allowed: explicit");
+  p.integrator = MpmIntegrator::Explicit;
+  p.cfl = f.number("cfl", p.cfl, 0, 1, true);
+  p.adaptive_dt = f.boolean("adaptive_dt", p.adaptive_dt);
+  if (const Json* walls = f.object("walls", false)) {
+    JsonFields w(*walls, "mpm.walls", file);
+    p.wall_type = parseColliderType(w, "type", "separating");
+    p.wall_friction = w.number("friction", p.wall_friction, 0, 1e3);
+    w.finish();
+  }
+  f.finish();
+  return p;
+}
+
+MaterialParams parseMaterial(const Json* j, const std::string& file) {
+  MaterialParams m;
+  if (!j) return m;
+  JsonFields f(*j, "material", file);
+  m.E0 = f.number("E0", m.E0, 0, 1e12, true);
+  m.nu = f.number("nu", m.nu, -1, 0.5, true, true);
+  m.theta_c = f.number("theta_c", m.theta_c, 0, 1, true, true);
+  m.theta_s = f.number("theta_s", m.theta_s, 0, 1, true, true);
+  m.xi = f.number("xi", m.xi, 0, 1e3);
+  f.finish();
+  return m;
+}
+
+ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
+  JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
+  const std::vector<int> dims{scene.authored_dimension};
+  ColliderParams c;
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box"}, std::nullopt);
+  c.shape = shape == "half_space" ? ColliderShape::HalfSpace
+            : shape == "sphere"   ? ColliderShape::Sphere
+                                  : ColliderShape::Box;
+  c.position = toVec3(f.numbers("position", std::nullopt, dims));
+  if (c.shape == ColliderShape::HalfSpace) {
+    c.normal = toVec3(f.numbers("normal", std::nullopt, dims));
+    double n2 = 0;
+    for (double x : c.normal) n2 += x * x;
+    if (!(n2 > 0)) f.fail("normal", "must not be the zero vector");
+    for (double& x : c.normal) x /= std::sqrt(n2);
+  } else if (c.shape == ColliderShape::Sphere) {
+    c.radius = f.number("radius", std::nullopt);
+    if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
+  } else {
+    c.size = toVec3(f.numbers("size", std::nullopt, dims));
+    for (int a = 0; a < scene.authored_dimension; ++a)
+      if (!(c.size[a] > 0)) f.fail("size", "every extent must be positive; allowed: (0, inf) m");
+  }
+  c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+  c.type = parseColliderType(f, "type", "separating");
+  c.friction = f.number("friction", c.friction, 0, 1e3);
+  f.finish();
+  return c;
+}
+
 bool isPerfectPower(int n, int dim, int& root) {
   for (root = 1; root <= n; ++root) {
     const int p = dim == 2 ? root * root : root * root * root;
@@ -202,9 +280,15 @@ Scene parseScene(const Json& root, const std::string& file) {
       s.authored_dimension == 2 ? std::vector<double>{0, -9.81} : std::vector<double>{0, -9.81, 0},
       {s.authored_dimension}));
 
-  f.choice("solver", {"density_hybrid"}, "density_hybrid");
-  s.solver = SolverType::DensityHybrid;
+  s.solver = f.choice("solver", {"density_hybrid", "mpm"}, "density_hybrid") == "mpm"
+                 ? SolverType::Mpm
+                 : SolverType::DensityHybrid;
   s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
+  s.mpm = parseMpm(f.object("mpm", false), file);
+  s.material = parseMaterial(f.object("material", false), file);
+  if (const Json* colliders = f.array("colliders", false))
+    for (size_t i = 0; i < colliders->size(); ++i)
+      s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));
 
   const Json* time = f.object("time", false);
   JsonFields t(time ? *time : empty, "time", file);

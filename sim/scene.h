@@ -14,7 +14,7 @@ namespace snowsim {
 
 using Vec3 = std::array<double, 3>;
 
-enum class SolverType { DensityHybrid };
+enum class SolverType { DensityHybrid, Mpm };
 enum class BodyShape { Ball, Box, HalfBall };
 
 // The readings of the report's vague passages (docs/report-readings.md).
@@ -41,6 +41,39 @@ struct DensityHybridParams {
   KernelType kernel = KernelType::Cubic;
 };
 
+// MPM snow (Stomakhin et al. 2013): transfers, kernel, time integration, walls; docs/mpm.md.
+enum class MpmTransfer { PicFlip, Apic, Mls };
+enum class MpmIntegrator { Explicit, SemiImplicit };
+enum class ColliderType { Sticky, Slip, Separating };
+enum class ColliderShape { HalfSpace, Sphere, Box };
+
+struct MpmParams {
+  MpmTransfer transfer = MpmTransfer::Mls;
+  double flip_alpha = 0.95;  // PIC/FLIP blend (paper section 8: 0.95)
+  KernelType kernel = KernelType::Quadratic;
+  MpmIntegrator integrator = MpmIntegrator::Explicit;
+  double cfl = 0.5;         // C of dt <= C h / (c + |v|max)
+  bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
+  ColliderType wall_type = ColliderType::Separating;  // the domain walls
+  double wall_friction = 0.2;
+};
+
+// Material of MPM snow; defaults are the paper's reference snow (see sim/snow_material.h).
+struct MaterialParams {
+  double E0 = 1.4e5, nu = 0.2, theta_c = 2.5e-2, theta_s = 7.5e-3, xi = 10;
+};
+
+struct ColliderParams {
+  ColliderShape shape = ColliderShape::HalfSpace;
+  Vec3 position{};       // a point of the plane, the sphere's or box's centre (m)
+  Vec3 normal{0, 1, 0};  // half space: outward normal (the solid is behind it)
+  double radius = 0;     // sphere (m)
+  Vec3 size{};           // box extents (m)
+  Vec3 velocity{};       // the collider moves with this velocity (m/s)
+  ColliderType type = ColliderType::Separating;
+  double friction = 0.2;  // Coulomb coefficient
+};
+
 struct Body {
   std::string name;
   BodyShape shape = BodyShape::Ball;
@@ -64,6 +97,9 @@ struct Scene {
   Vec3 gravity{0, -9.81, 0};
   SolverType solver = SolverType::DensityHybrid;
   DensityHybridParams density_hybrid;
+  MpmParams mpm;
+  MaterialParams material;
+  std::vector<ColliderParams> colliders;
   double dt = 0.001;      // time step (s)
   double duration = 1.0;  // simulated time (s)
   double fps = 50;        // frames written per simulated second

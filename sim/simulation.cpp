@@ -6,6 +6,7 @@
 
 #include "sim/density_hybrid.h"
 #include "sim/errors.h"
+#include "sim/mpm.h"
 #include "sim/sampling.h"
 
 namespace snowsim {
@@ -16,7 +17,10 @@ template <int D>
 class SimulationOf final : public Simulation {
  public:
   explicit SimulationOf(const Scene& scene) : scene_(scene) {
-    solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));
+    if (scene.solver == SolverType::Mpm)
+      solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene));
+    else
+      solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));
   }
 
   void advanceTo(double target) override {

@@ -1,0 +1,362 @@
+#include "sim/mpm.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "sim/errors.h"
+#include "sim/transfer.h"
+
+namespace snowsim {
+
+namespace {
+
+// D_p^{-1} of APIC (Jiang et al. 2015, eq. after 11): 4 / h^2 for quadratic, 3 / h^2 for cubic.
+template <class Kernel>
+Real inertiaInverse(Real h) {
+  return (Kernel::support == 3 ? Real(4) : Real(3)) / (h * h);
+}
+
+}  // namespace
+
+template <int D>
+MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
+    : params_(scene.mpm), file_(scene.file), particles_(std::move(particles)) {
+  material_.E0 = scene.material.E0;
+  material_.nu = scene.material.nu;
+  material_.theta_c = scene.material.theta_c;
+  material_.theta_s = scene.material.theta_s;
+  material_.xi = scene.material.xi;
+  for (int a = 0; a < D; ++a) gravity_[a] = scene.gravity[a];
+  IVec<D> cells;
+  for (int a = 0; a < D; ++a) cells[a] = scene.cells[a];
+  grid_ = GridGeometry<D>(cells, scene.cell_size);
+  fields_.resize(grid_.nodeCount());
+  colliders_ = makeColliders<D>(scene);
+
+  const int n = particles_.size();
+  F_E_.assign(n, Mat<D>::Identity());
+  J_P_.assign(n, 1);
+  C_.assign(n, Mat<D>::Zero());
+  v_grid_.assign(n, Vec<D>::Zero());
+  order_.resize(n);
+  particle_block_.resize(n);
+  int block_count = 1;
+  for (int a = 0; a < D; ++a) {
+    blocks_[a] = (cells[a] + block_cells - 1) / block_cells;
+    block_count *= blocks_[a];
+  }
+  block_start_.assign(block_count + 1, 0);
+  colour_blocks_.assign(1 << D, {});
+  for (int b = 0; b < block_count; ++b) {
+    int colour = 0, rest = b;
+    for (int a = 0; a < D; ++a) {
+      colour |= (rest % blocks_[a] % 2) << a;
+      rest /= blocks_[a];
+    }
+    colour_blocks_[colour].push_back(b);
+  }
+  // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
+  binParticles();
+  rasterise(0);
+  computeParticleVolumes();
+}
+
+template <int D>
+void MpmSolver<D>::step(Real dt) {
+  const Real stable_dt = cflTimeStep();
+  binParticles();
+  rasterise(dt);             // 1, 3: mass, momentum and forces to the grid
+  updateGridVelocities(dt);  // 4: explicit update
+  // (6: the semi-implicit solve of section 9 goes here, acting on fields().velocity)
+  collideGrid();          // 5: grid collisions
+  transferToParticles();  // 8 (gathered first, used by 7): particle velocities, grad v
+  updateDeformation(dt);  // 7: F_E, plasticity
+  collideParticles();     // 9
+  advect(dt);             // 10
+  for (Collider<D>& c : colliders_) c.advance(dt);
+  ++steps_;
+  time_ += dt;
+  checkBlowUp(dt, stable_dt);
+}
+
+template <int D>
+void MpmSolver<D>::binParticles() {
+  const int n = particles_.size();
+  std::fill(block_start_.begin(), block_start_.end(), 0);
+  const Real inv = 1 / (grid_.h * block_cells);
+  for (int p = 0; p < n; ++p) {
+    int b = 0, s = 1;
+    for (int a = 0; a < D; ++a) {
+      const int k =
+          std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+      b += k * s;
+      s *= blocks_[a];
+    }
+    particle_block_[p] = b;
+    ++block_start_[b + 1];
+  }
+  for (size_t b = 1; b < block_start_.size(); ++b) block_start_[b] += block_start_[b - 1];
+  // Stable counting sort: particles keep their index order within a block (determinism).
+  std::vector<int>& next = v_cursor_;
+  next.assign(block_start_.begin(), block_start_.end() - 1);
+  for (int p = 0; p < n; ++p) order_[next[particle_block_[p]]++] = p;
+}
+
+template <int D>
+void MpmSolver<D>::rasterise(Real dt) {
+  fields_.clear();
+  withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
+  // Momentum to velocity; keep the rasterised velocity for the FLIP increment.
+  const int nodes = grid_.nodeCount();
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < nodes; ++k) {
+    const Real m = fields_.mass[k];
+    fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
+    fields_.velocity_old[k] = fields_.velocity[k];
+  }
+}
+
+template <int D>
+template <class Kernel>
+void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
+  const Real h = grid_.h, inv_h = 1 / h;
+  const Real D_inv = inertiaInverse<Kernel>(h);
+  const bool affine = params_.transfer != MpmTransfer::PicFlip;
+  const bool mls = params_.transfer == MpmTransfer::Mls;
+  for (const std::vector<int>& colour : colour_blocks_) {
+    const int count = static_cast<int>(colour.size());
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int c = 0; c < count; ++c) {
+      const int b = colour[c];
+      for (int o = block_start_[b]; o < block_start_[b + 1]; ++o) {
+        const int p = order_[o];
+        const Vec<D>& x = particles_.x[p];
+        const Real m = particles_.mass[p];
+        const Vec<D> mv = m * particles_.v[p];
+        const Mat<D> mC = m * C_[p];
+        // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
+        // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
+        const Real V0 = particles_.volume[p];
+        const Mat<D> stress =
+            V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], lame(p))) : Mat<D>::Zero();
+        const Mat<D> stress_mls = D_inv * stress;
+        const Stencil<D, Kernel> s(x, inv_h);
+        const int base = grid_.index(s.base);
+        for (int nd = 0; nd < s.nodes; ++nd) {
+          int k = base;
+          Vec<D> dx;
+          for (int a = 0; a < D; ++a) {
+            const int off = s.offset(nd, a);
+            k += off * grid_.stride[a];
+            dx[a] = (s.base[a] + off) * h - x[a];
+          }
+          const Real w = s.weight(nd);
+          fields_.mass[k] += w * m;
+          // Momentum, eq. 1; APIC/MLS add the affine part m C (x_i - x_p) (Jiang et al. 2015).
+          fields_.velocity[k] += affine ? Vec<D>(w * (mv + mC * dx)) : Vec<D>(w * mv);
+          if (mls)
+            fields_.force[k] += w * (stress_mls * dx);
+          else
+            fields_.force[k] += stress * s.gradient(nd, inv_h);
+        }
+      }
+    }
+  }
+}
+
+template <int D>
+void MpmSolver<D>::computeParticleVolumes() {
+  const Real cell_volume = std::pow(grid_.h, D);
+  const int n = particles_.size();
+  withKernel(params_.kernel, [&]<class Kernel>() {
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < n; ++p) {
+      // rho_p^0 = sum_i m_i w_ip / h^D, V_p^0 = m_p / rho_p^0 (paper section 4 step 2).
+      Real rho = 0;
+      forEachStencilNode<D, Kernel>(grid_, particles_.x[p], [&](int k, Real w, const Vec<D>&) {
+        rho += fields_.mass[k] * w;
+      });
+      rho /= cell_volume;
+      particles_.density[p] = rho;
+      particles_.volume[p] = particles_.mass[p] / rho;
+    }
+  });
+}
+
+template <int D>
+void MpmSolver<D>::updateGridVelocities(Real dt) {
+  const int nodes = grid_.nodeCount();
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < nodes; ++k) {
+    const Real m = fields_.mass[k];
+    if (m > 0) fields_.velocity[k] += dt * (fields_.force[k] / m + gravity_);  // eq. 8, explicit
+  }
+}
+
+template <int D>
+void MpmSolver<D>::collideGrid() {
+  const int nodes = grid_.nodeCount();
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < nodes; ++k) {
+    if (fields_.mass[k] <= 0) continue;
+    const Vec<D> x = grid_.position(grid_.coords(k));
+    for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
+  }
+}
+
+template <int D>
+void MpmSolver<D>::transferToParticles() {
+  withKernel(params_.kernel, [&]<class Kernel>() { gatherWith<Kernel>(); });
+}
+
+template <int D>
+template <class Kernel>
+void MpmSolver<D>::gatherWith() {
+  const Real h = grid_.h, inv_h = 1 / h;
+  const Real D_inv = inertiaInverse<Kernel>(h);
+  const MpmTransfer transfer = params_.transfer;
+  const Real alpha = params_.flip_alpha;
+  const int n = particles_.size();
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    const Vec<D> x = particles_.x[p];
+    const Stencil<D, Kernel> s(x, inv_h);
+    const int base = grid_.index(s.base);
+    Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
+    Mat<D> B = Mat<D>::Zero();
+    for (int nd = 0; nd < s.nodes; ++nd) {
+      int k = base;
+      Vec<D> dx;
+      for (int a = 0; a < D; ++a) {
+        const int off = s.offset(nd, a);
+        k += off * grid_.stride[a];
+        dx[a] = (s.base[a] + off) * h - x[a];
+      }
+      const Real w = s.weight(nd);
+      const Vec<D>& vi = fields_.velocity[k];
+      v_pic += w * vi;
+      if (transfer == MpmTransfer::PicFlip) {
+        dv += w * (vi - fields_.velocity_old[k]);
+        B += vi * s.gradient(nd, inv_h).transpose();  // grad v_p = sum_i v_i grad w_ip^T (eq. 10)
+      } else {
+        B += w * vi * dx.transpose();  // APIC B_p (Jiang et al. 2015, eq. 10)
+      }
+    }
+    if (transfer == MpmTransfer::PicFlip) {
+      // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
+      particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
+      C_[p] = B;
+    } else {
+      particles_.v[p] = v_pic;
+      C_[p] = D_inv * B;  // C_p = B_p D_p^-1; also grad v_p for MLS (Hu et al. 2018)
+    }
+  }
+}
+
+template <int D>
+void MpmSolver<D>::updateDeformation(Real dt) {
+  const int n = particles_.size();
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
+    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];            // eq. 10, F_E^trial
+    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p]);  // eqs. 11-12
+  }
+  if (params_.transfer == MpmTransfer::PicFlip) {
+    // PIC/FLIP keeps no affine velocity: C_ must not feed the next rasterisation.
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < n; ++p) C_[p].setZero();
+  }
+}
+
+template <int D>
+void MpmSolver<D>::collideParticles() {
+  const int n = particles_.size();
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p)
+    for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
+}
+
+template <int D>
+void MpmSolver<D>::advect(Real dt) {
+  const int n = particles_.size();
+  const Vec<D> extent = grid_.extent();
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    Vec<D>& x = particles_.x[p];
+    x += dt * particles_.v[p];
+    for (const Collider<D>& c : colliders_) c.pushOut(x);
+    x = x.cwiseMax(Vec<D>::Zero()).cwiseMin(extent);  // never leave the domain
+  }
+}
+
+template <int D>
+Real MpmSolver<D>::cflTimeStep() const {
+  // dt <= C h / (c + |v|max), c = sqrt((lambda + 2 mu) / rho) with hardening (method-notes.md).
+  Real fastest = 0;
+  const int n = particles_.size();
+#pragma omp parallel for schedule(static) reduction(max : fastest)
+  for (int p = 0; p < n; ++p) {
+    const Real c = pWaveSpeed(lame(p), particles_.density[p]);
+    fastest = std::max(fastest, c + particles_.v[p].norm());
+  }
+  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
+}
+
+template <int D>
+Real MpmSolver<D>::stableTimeStep() const {
+  return params_.adaptive_dt ? cflTimeStep() : std::numeric_limits<Real>::infinity();
+}
+
+template <int D>
+void MpmSolver<D>::checkBlowUp(Real dt, Real stable_dt) const {
+  // An explicit step beyond its limit grows exponentially; a particle crossing more than a cell
+  // per step or a non-finite velocity is where we stop it.
+  Real fastest = 0;
+  bool finite = true;
+  const int n = particles_.size();
+  for (int p = 0; p < n; ++p) {
+    const Real s = particles_.v[p].norm();
+    if (!std::isfinite(s) || !particles_.x[p].allFinite()) {
+      finite = false;
+      break;
+    }
+    fastest = std::max(fastest, s);
+  }
+  if (finite && fastest * dt <= grid_.h) return;
+  std::ostringstream s;
+  s << file_ << ": MPM blew up at step " << steps_ << " (t = " << time_ << " s): largest speed ";
+  if (finite)
+    s << fastest << " m/s moves a particle more than a cell per step";
+  else
+    s << "overflowed (non-finite)";
+  s << "; dt = " << dt << " s, the explicit CFL limit was " << stable_dt
+    << " s; set mpm.adaptive_dt=true or time.dt below " << stable_dt;
+  throw SimulationError(s.str());
+}
+
+template <int D>
+void MpmSolver<D>::describe(Snapshot& snapshot) const {
+  const int n = particles_.size();
+  snapshot.density.resize(n);
+  snapshot.plastic_j.resize(n);
+  for (int p = 0; p < n; ++p) {
+    const Real J = F_E_[p].determinant() * J_P_[p];
+    snapshot.density[p] = static_cast<float>(particles_.mass[p] / (particles_.volume[p] * J));
+    snapshot.plastic_j[p] = static_cast<float>(J_P_[p]);
+  }
+  if constexpr (D == 2) {
+    const Real area = grid_.h * grid_.h;
+    snapshot.grid.node_density.clear();
+    for (int j = 0; j <= grid_.cells[1]; ++j)
+      for (int i = 0; i <= grid_.cells[0]; ++i)
+        snapshot.grid.node_density.push_back(
+            static_cast<float>(fields_.mass[grid_.index(IVec<2>(i, j))] / area));
+  }
+}
+
+template class MpmSolver<2>;
+template class MpmSolver<3>;
+
+}  // namespace snowsim

@@ -1,0 +1,88 @@
+// MPM snow (Stomakhin, Schroeder, Chai, Teran, Selle 2013, "A Material Point Method for Snow
+// Simulation"), explicit symplectic Euler, PIC/FLIP, APIC or MLS-MPM transfers, quadratic or cubic
+// B-splines. One step is the paper's section 4 list of stages. A semi-implicit velocity solve
+// (paper section 9) slots in between updateGridVelocities() and collideGrid(): it can read the grid
+// (fields(), grid()) and the per-particle F_E, V_p^0 and Lamé parameters (elasticGradient(),
+// particles().volume, lame()).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sim/collider.h"
+#include "sim/grid.h"
+#include "sim/scene.h"
+#include "sim/snow_material.h"
+#include "sim/solver.h"
+
+namespace snowsim {
+
+template <int D>
+class MpmSolver final : public Solver<D> {
+ public:
+  MpmSolver(const Scene& scene, Particles<D> particles);
+
+  void step(Real dt) override;
+  Real stableTimeStep() const override;
+  const Particles<D>& particles() const override { return particles_; }
+  void describe(Snapshot& snapshot) const override;
+
+  const GridGeometry<D>& grid() const { return grid_; }
+  const GridFields<D>& fields() const { return fields_; }
+  GridFields<D>& fields() { return fields_; }
+  const std::vector<Mat<D>>& elasticGradient() const { return F_E_; }
+  const std::vector<Real>& plasticJ() const { return J_P_; }
+  const std::vector<Mat<D>>& affine() const { return C_; }
+  const SnowMaterial& material() const { return material_; }
+  Lame lame(int p) const { return hardenedLame(material_, J_P_[p]); }
+  const std::vector<Collider<D>>& colliders() const { return colliders_; }
+  const MpmParams& params() const { return params_; }
+  // The CFL step C h / (c + |v|max) of the current state, whether or not dt is adaptive.
+  Real cflTimeStep() const;
+
+  // The stages of one step (paper section 4), public so tests and the implicit solve can drive
+  // them.
+  void rasterise(Real dt);             // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
+  void computeParticleVolumes();       // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
+  void updateGridVelocities(Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
+  void collideGrid();                  // 5. grid-based body collisions (section 8)
+  void updateDeformation(Real dt);     // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
+  void transferToParticles();          // 8. v_p by PIC/FLIP, APIC or MLS
+  void collideParticles();             // 9. particle-based body collisions (section 8)
+  void advect(Real dt);                // 10. x += dt v, kept out of colliders and in the domain
+
+ private:
+  void binParticles();
+  template <class Kernel>
+  void rasteriseWith(Real dt);
+  template <class Kernel>
+  void gatherWith();
+  void checkBlowUp(Real dt, Real stable_dt) const;
+
+  MpmParams params_;
+  SnowMaterial material_;
+  Vec<D> gravity_;
+  std::string file_;
+  Particles<D> particles_;
+  std::vector<Mat<D>> F_E_;     // elastic deformation gradient
+  std::vector<Real> J_P_;       // det F_P, plastic volume ratio
+  std::vector<Mat<D>> C_;       // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
+  std::vector<Vec<D>> v_grid_;  // per particle: interpolated grid velocity (PIC part)
+  GridGeometry<D> grid_;
+  GridFields<D> fields_;
+  std::vector<Collider<D>> colliders_;
+  std::vector<Vec<D>> node_position_;
+  // Deterministic parallel P2G: particles binned into blocks of 4^D cells, blocks processed in 2^D
+  // colours so no two blocks of a colour write the same node; fixed order within a block.
+  static constexpr int block_cells = 4;
+  IVec<D> blocks_;
+  std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
+  std::vector<int> order_;
+  std::vector<int> particle_block_;
+  std::vector<int> v_cursor_;  // counting-sort cursors, one per block
+  std::vector<std::vector<int>> colour_blocks_;
+  long steps_ = 0;
+  Real time_ = 0;
+};
+
+}  // namespace snowsim

@@ -1,0 +1,149 @@
+#include "sim/snow_material.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/SVD>
+
+namespace snowsim {
+
+Lame hardenedLame(const SnowMaterial& m, Real J_P) {
+  const Real e = std::exp(m.xi * (1 - J_P));  // eq. 8
+  return {m.mu0() * e, m.lambda0() * e};
+}
+
+namespace {
+
+// 2x2 polar rotation in closed form: R is the rotation by atan2(c - b, a + d) for F = [a b; c d]
+// (the rotation closest to F in the Frobenius norm).
+Mat<2> polar2(const Mat<2>& F) {
+  const Real x = F(0, 0) + F(1, 1);
+  const Real y = F(1, 0) - F(0, 1);
+  const Real r = std::sqrt(x * x + y * y);
+  Mat<2> R;
+  if (r == 0) {
+    R.setIdentity();
+    return R;
+  }
+  const Real c = x / r, s = y / r;
+  R << c, -s, s, c;
+  return R;
+}
+
+// 2x2 SVD in closed form: F = R S (polar), then S = W diag(sigma) W^T (symmetric eigenproblem),
+// so U = R W, V = W.
+void svd2(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
+  const Mat<2> R = polar2(F);
+  const Mat<2> S = R.transpose() * F;  // symmetric
+  const Real a = S(0, 0), b = Real(0.5) * (S(0, 1) + S(1, 0)), d = S(1, 1);
+  const Real mean = Real(0.5) * (a + d), half = Real(0.5) * (a - d);
+  const Real rad = std::sqrt(half * half + b * b);
+  sigma << mean + rad, mean - rad;
+  // Eigenvector of the larger eigenvalue: angle phi with tan(2 phi) = 2b / (a - d).
+  const Real phi = Real(0.5) * std::atan2(b, half);
+  const Real c = std::cos(phi), s = std::sin(phi);
+  V << c, -s, s, c;
+  U = R * V;
+}
+
+void svd3(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
+  const Eigen::JacobiSVD<Mat<3>> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  U = svd.matrixU();
+  V = svd.matrixV();
+  sigma = svd.singularValues();
+  // Make U and V rotations; the sign goes to the smallest singular value.
+  if (U.determinant() < 0) {
+    U.col(2) *= -1;
+    sigma[2] *= -1;
+  }
+  if (V.determinant() < 0) {
+    V.col(2) *= -1;
+    sigma[2] *= -1;
+  }
+}
+
+}  // namespace
+
+template <>
+void signedSvd<2>(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
+  svd2(F, U, sigma, V);
+}
+template <>
+void signedSvd<3>(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
+  svd3(F, U, sigma, V);
+}
+
+template <>
+Mat<2> polarRotation<2>(const Mat<2>& F) {
+  return polar2(F);
+}
+template <>
+Mat<3> polarRotation<3>(const Mat<3>& F) {
+  Mat<3> U, V;
+  Vec<3> s;
+  svd3(F, U, s, V);
+  return U * V.transpose();
+}
+
+template <int D>
+Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame) {
+  const Mat<D> R = polarRotation<D>(F_E);
+  const Real J = F_E.determinant();
+  // J F^{-T} is the cofactor matrix of F, which stays finite for singular F.
+  Mat<D> JFinvT;
+  if constexpr (D == 2) {
+    JFinvT << F_E(1, 1), -F_E(1, 0), -F_E(0, 1), F_E(0, 0);
+  } else {
+    JFinvT.col(0) = F_E.col(1).cross(F_E.col(2));
+    JFinvT.col(1) = F_E.col(2).cross(F_E.col(0));
+    JFinvT.col(2) = F_E.col(0).cross(F_E.col(1));
+  }
+  return 2 * lame.mu * (F_E - R) + lame.lambda * (J - 1) * JFinvT;
+}
+
+template <int D>
+Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Lame& lame) {
+  const Mat<D> R = polarRotation<D>(F_E);
+  const Real J = F_E.determinant();
+  return 2 * lame.mu * (F_E - R) * F_E.transpose() + lame.lambda * (J - 1) * J * Mat<D>::Identity();
+}
+
+template <int D>
+Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P) {
+  const Mat<D> F = F_E * F_P;
+  Mat<D> U, V;
+  Vec<D> sigma;
+  signedSvd<D>(F_E, U, sigma, V);
+  for (int a = 0; a < D; ++a)
+    sigma[a] = std::clamp(sigma[a], 1 - m.theta_c, 1 + m.theta_s);  // eq. 11
+  F_E = U * sigma.asDiagonal() * V.transpose();
+  F_P = V * sigma.cwiseInverse().asDiagonal() * U.transpose() * F;  // eq. 12
+  return F_P.determinant();
+}
+
+template <int D>
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P) {
+  Mat<D> U, V;
+  Vec<D> sigma;
+  signedSvd<D>(F_E, U, sigma, V);
+  Real J_trial = 1, J_clamped = 1;
+  for (int a = 0; a < D; ++a) {
+    J_trial *= sigma[a];
+    sigma[a] = std::clamp(sigma[a], 1 - m.theta_c, 1 + m.theta_s);  // eq. 11
+    J_clamped *= sigma[a];
+  }
+  F_E = U * sigma.asDiagonal() * V.transpose();
+  // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
+  return J_P * J_trial / J_clamped;
+}
+
+template Mat<2> fixedCorotatedPiola<2>(const Mat<2>&, const Lame&);
+template Mat<3> fixedCorotatedPiola<3>(const Mat<3>&, const Lame&);
+template Mat<2> fixedCorotatedKirchhoff<2>(const Mat<2>&, const Lame&);
+template Mat<3> fixedCorotatedKirchhoff<3>(const Mat<3>&, const Lame&);
+template Real plasticReturnMapping<2>(const SnowMaterial&, Mat<2>&, Mat<2>&);
+template Real plasticReturnMapping<3>(const SnowMaterial&, Mat<3>&, Mat<3>&);
+template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real);
+template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real);
+
+}  // namespace snowsim

@@ -1,0 +1,75 @@
+#include "sim/snow_material.h"
+
+#include <gtest/gtest.h>
+
+using namespace snowsim;
+
+TEST(SnowMaterial, LameFromYoungAndPoisson) {
+  const SnowMaterial m;
+  EXPECT_NEAR(m.mu0(), 1.4e5 / 2.4, 1e-9);
+  EXPECT_NEAR(m.lambda0(), 1.4e5 * 0.2 / (1.2 * 0.6), 1e-9);
+  const Lame compacted = hardenedLame(m, 0.9);
+  EXPECT_NEAR(compacted.mu, m.mu0() * std::exp(1.0), 1e-6);
+}
+
+TEST(SnowMaterial, TwoByTwoSvdReconstructs) {
+  Mat<2> F;
+  F << 1.1, 0.3, -0.2, 0.7;
+  Mat<2> U, V;
+  Vec<2> s;
+  signedSvd<2>(F, U, s, V);
+  EXPECT_LT((U * s.asDiagonal() * V.transpose() - F).norm(), 1e-12);
+  EXPECT_NEAR(U.determinant(), 1, 1e-12);
+  EXPECT_NEAR(V.determinant(), 1, 1e-12);
+  const Mat<2> R = polarRotation<2>(F);
+  const Mat<2> S = R.transpose() * F;
+  EXPECT_NEAR(S(0, 1), S(1, 0), 1e-12);
+}
+
+TEST(SnowMaterial, StressVanishesAtRestAndForRotations) {
+  const Lame lame = hardenedLame(SnowMaterial{}, 1);
+  EXPECT_LT(fixedCorotatedPiola<3>(Mat<3>::Identity(), lame).norm(), 1e-9);
+  const Mat<3> R = Eigen::AngleAxisd(0.7, Vec<3>(1, 2, 3).normalized()).toRotationMatrix();
+  EXPECT_LT(fixedCorotatedPiola<3>(R, lame).norm(), 1e-6);
+}
+
+TEST(SnowMaterial, PiolaIsTheEnergyGradient) {
+  // Central differences of Psi = mu ||F - R||^2 + lambda/2 (J - 1)^2 (paper eq. 6).
+  const Lame lame{2.0, 3.0};
+  Mat<2> F;
+  F << 1.05, 0.1, -0.04, 0.93;
+  auto psi = [&](const Mat<2>& G) {
+    const Real J = G.determinant();
+    return lame.mu * (G - polarRotation<2>(G)).squaredNorm() +
+           0.5 * lame.lambda * (J - 1) * (J - 1);
+  };
+  const Mat<2> P = fixedCorotatedPiola<2>(F, lame);
+  const Real eps = 1e-6;
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) {
+      Mat<2> Fp = F, Fm = F;
+      Fp(i, j) += eps;
+      Fm(i, j) -= eps;
+      EXPECT_NEAR((psi(Fp) - psi(Fm)) / (2 * eps), P(i, j), 1e-7);
+    }
+  EXPECT_LT((fixedCorotatedKirchhoff<2>(F, lame) - P * F.transpose()).norm(), 1e-12);
+}
+
+TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
+  const SnowMaterial m;
+  Mat<3> F_E;
+  F_E << 0.9, 0.05, 0, 0.02, 1.04, 0.01, 0, 0.03, 0.97;
+  Mat<3> F_P = Mat<3>::Identity();
+  const Mat<3> F = F_E * F_P;
+  const Real J_P = plasticReturnMapping<3>(m, F_E, F_P);
+  const Eigen::JacobiSVD<Mat<3>> svd(F_E);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GE(svd.singularValues()[a], 1 - m.theta_c - 1e-12);
+    EXPECT_LE(svd.singularValues()[a], 1 + m.theta_s + 1e-12);
+  }
+  EXPECT_LT((F_E * F_P - F).norm(), 1e-12);
+  EXPECT_NEAR(J_P, F_P.determinant(), 1e-12);
+  Mat<3> F_E2 = F;
+  EXPECT_NEAR(plasticReturnMappingJ<3>(m, F_E2, 1.0), J_P, 1e-12);
+  EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
+}

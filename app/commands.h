@@ -8,5 +8,6 @@ namespace snowsim {
 
 void addRunCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
+void addStudyCommand(CLI::App& app);
 
 }  // namespace snowsim

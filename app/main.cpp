@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "snowsim 0.1");
   snowsim::addRunCommand(app);
   snowsim::addRenderCommand(app);
+  snowsim::addStudyCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -50,9 +50,9 @@ Preset presetNamed(const std::string& name) {
     return {{"snowball_drop", "column_thrown_ball"}, {0.05, 0.01, 0.004, 0.002}, {1}, {9}, 0.3};
   if (name == "full")
     return {{"snowball_drop", "column_thrown_ball"},
-            {0.05, 0.01, 0.004, 0.002, 0.001},
-            {1, 2},
-            {4, 9, 16},
+            {0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005},
+            {1, 2, 4},
+            {4, 9, 16, 25},
             1.0};
   throw InputError("--preset: unknown preset '" + name + "'; allowed: tiny, quick, full");
 }

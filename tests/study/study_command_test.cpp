@@ -84,3 +84,29 @@ TEST(StudyCommand, TinyPresetWritesCaughtRowsAndSkipsOnRerun) {
 }
 
 }  // namespace
+
+namespace {
+
+long stepsOfRun(const std::string& arguments) {
+  const auto dir = std::filesystem::temp_directory_path() / "snowsim_quality_test";
+  std::filesystem::remove_all(dir);
+  const std::string command = std::string(SNOWSIM_BINARY) + " run " + SNOWSIM_SOURCE_DIR +
+                              "/scenes/snowball_drop.json --no-png --no-ply -o " + dir.string() +
+                              " " + arguments + " 2>/dev/null";
+  if (std::system(command.c_str()) != 0) return -1;
+  std::ifstream in(dir / "run.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string json = text.str();
+  const auto at = json.find("\"steps\":");
+  return at == std::string::npos ? -2 : std::stol(json.substr(at + 8));
+}
+
+TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {
+  EXPECT_EQ(stepsOfRun("--quality draft"), 200);       // dt 0.005 over 1 s
+  EXPECT_EQ(stepsOfRun("--quality reference"), 2000);  // dt 0.0005
+  EXPECT_EQ(stepsOfRun("--quality draft --set time.dt=0.01"), 100);
+  EXPECT_EQ(stepsOfRun("--quality bogus"), -1);
+}
+
+}  // namespace

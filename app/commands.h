@@ -9,5 +9,6 @@ namespace snowsim {
 void addRunCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addFigureCommand(CLI::App& app);
+void addStudyCommand(CLI::App& app);
 
 }  // namespace snowsim

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   snowsim::addRunCommand(app);
   snowsim::addRenderCommand(app);
   snowsim::addFigureCommand(app);
+  snowsim::addStudyCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "app/frame_sink.h"
 #include "app/png_sink.h"
+#include "app/quality.h"
 #include "sim/errors.h"
 #include "sim/files.h"
 #include "sim/ply.h"
@@ -23,6 +24,7 @@ struct RunOptions {
   std::string scene;
   std::string out = "out";
   std::vector<std::string> overrides;
+  std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
   bool ply = true;
   bool png = true;
   RenderOptions render;
@@ -60,7 +62,10 @@ class Progress {
 };
 
 void run(const RunOptions& options) {
-  const Scene scene = loadScene(options.scene, options.overrides);
+  // The quality level's settings first, so the user's --set still wins.
+  std::vector<std::string> overrides = qualityOverrides(options.quality);
+  overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
+  const Scene scene = loadScene(options.scene, overrides);
   const RenderSettings render = options.render.settings();  // checked before anything is written
   prepareOutputDirectory(options.out);
   auto simulation = makeSimulation(scene);
@@ -106,6 +111,9 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("--set", options->overrides,
                   "Override a scene field by its dotted path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] (repeatable)");
+  cmd->add_option("--quality", options->quality,
+                  "draft | figure | reference: time step and particles per cell from the "
+                  "measured speed/accuracy front (docs/study.md); --set overrides them");
   cmd->add_flag("!--no-ply", options->ply, "Do not write the per-frame PLY files");
   cmd->add_flag("!--no-png", options->png, "Do not render the per-frame PNG images");
   options->render.addTo(*cmd);

@@ -1,0 +1,276 @@
+// snowsim study: runs scene families over solver, time step, cell size and particles per cell,
+// and writes one CSV row per run: wall time, steps, particles, error by each metric of
+// sim/metrics.h against a reference run, and how the run ended (docs/study.md).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "app/commands.h"
+#include "sim/errors.h"
+#include "sim/files.h"
+#include "sim/metrics.h"
+#include "sim/simulation.h"
+
+namespace snowsim {
+
+namespace {
+
+struct StudyOptions {
+  std::string preset = "full";
+  std::string scenes = "scenes";
+  std::string out = "docs/study/results.csv";
+};
+
+// One point of the sweep. refine halves the cell size and doubles the cells (same domain).
+struct Config {
+  std::string scene;  // file stem in the scenes directory
+  std::string solver = "density_hybrid";
+  double dt = 0.001;
+  int refine = 1;
+  int particles_per_cell = 9;
+  double duration = 0.5;
+};
+
+struct Preset {
+  std::vector<std::string> scenes;
+  std::vector<double> dts;
+  std::vector<int> refines;
+  std::vector<int> particles_per_cell;
+  double duration;
+};
+
+// quick: a handful of runs for CI (about a minute on 2 cores); full: the study in docs/study.md.
+// Both include dt = 0.01, the report's Fig. 8 failure, and dt = 0.05, far past any limit.
+Preset presetNamed(const std::string& name) {
+  if (name == "tiny") return {{"snowball_drop"}, {0.05, 0.004, 0.002}, {1}, {4}, 0.1};
+  if (name == "quick")
+    return {{"snowball_drop", "column_thrown_ball"}, {0.05, 0.01, 0.004, 0.002}, {1}, {9}, 0.3};
+  if (name == "full")
+    return {{"snowball_drop", "column_thrown_ball"},
+            {0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005},
+            {1, 2, 4},
+            {4, 9, 16, 25},
+            1.0};
+  throw InputError("--preset: unknown preset '" + name + "'; allowed: tiny, quick, full");
+}
+
+// The reference: the finest point of the sweep at half its cell size and a quarter of its dt.
+Config referenceFor(const std::string& scene, const Preset& p) {
+  Config c;
+  c.scene = scene;
+  c.dt = *std::min_element(p.dts.begin(), p.dts.end()) / 4;
+  c.refine = 2 * *std::max_element(p.refines.begin(), p.refines.end());
+  c.particles_per_cell =
+      *std::max_element(p.particles_per_cell.begin(), p.particles_per_cell.end());
+  c.duration = p.duration;
+  return c;
+}
+
+// The build is identified by a hash of the executable itself: a rebuilt binary remeasures.
+std::string buildId() {
+  std::ifstream in("/proc/self/exe", std::ios::binary);
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a 64
+  char buffer[1 << 16];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      hash ^= static_cast<unsigned char>(buffer[i]);
+      hash *= 1099511628211ull;
+    }
+    if (!in) break;
+  }
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+std::string format(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
+std::string keyOf(const std::string& build, const Config& c) {
+  return build + "," + c.scene + "," + c.solver + "," + format(c.dt) + "," +
+         std::to_string(c.refine) + "," + std::to_string(c.particles_per_cell) + "," +
+         format(c.duration);
+}
+
+struct Outcome {
+  std::string status = "finished";  // finished | diverged | nan | escaped | tunnelled
+  std::string message;
+  double wall = 0;
+  long steps = 0;
+  int particles = 0;
+  double cell_size = 0;
+  Frames frames;
+};
+
+Outcome simulate(const StudyOptions& options, const Config& c) {
+  const std::string path = options.scenes + "/" + c.scene + ".json";
+  Scene base = loadScene(path);
+  std::vector<std::string> overrides = {
+      "solver=" + c.solver, "time.dt=" + format(c.dt), "time.duration=" + format(c.duration),
+      "particles_per_cell=" + std::to_string(c.particles_per_cell),
+      "grid.cell_size=" + format(base.cell_size / c.refine)};
+  std::string cells = "grid.cells=[";
+  for (int k = 0; k < base.authored_dimension; ++k)
+    cells += (k ? "," : "") + std::to_string(base.cells[k] * c.refine);
+  overrides.push_back(cells + "]");
+  const Scene scene = loadScene(path, overrides);
+
+  Outcome out;
+  out.cell_size = scene.cell_size;
+  const auto start = std::chrono::steady_clock::now();
+  auto simulation = makeSimulation(scene);
+  out.particles = simulation->particleCount();
+  try {
+    for (int frame = 0; frame <= scene.frameCount(); ++frame) {
+      simulation->advanceTo(std::min(scene.duration, frame / scene.fps));
+      out.frames.push_back(simulation->snapshot(frame));
+      if (anyNonFinite(out.frames.back())) {
+        out.status = "nan";
+        out.message = "non-finite particle at t = " + format(simulation->time());
+        break;
+      }
+    }
+  } catch (const SimulationError& e) {
+    out.status = "diverged";
+    out.message = e.what();
+  }
+  out.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out.steps = simulation->steps();
+  if (out.status != "finished") return out;
+  const Vec3 e = scene.extent();
+  if (anyOutside(out.frames.back(), {e[0], e[1], e[2]}, scene.cell_size)) out.status = "escaped";
+  return out;
+}
+
+// The tower's left edge in the thrown-ball scene: the body named "column".
+double towerLeftEdge(const StudyOptions& options, const std::string& scene_name) {
+  const Scene scene = loadScene(options.scenes + "/" + scene_name + ".json");
+  for (const Body& b : scene.bodies)
+    if (b.name == "column") return b.center[0] - b.size[0] / 2;
+  return -1;
+}
+
+const char* kHeader =
+    "build,scene,solver,dt,refine,particles_per_cell,duration,cell_size,status,wall_s,steps,"
+    "particles,err_density,err_height_m,err_com_m,free_fall_err_m,claim_ball_outside,message";
+
+std::set<std::string> measuredKeys(const std::string& csv) {
+  std::set<std::string> keys;
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    // The key is the first seven fields.
+    size_t pos = 0;
+    for (int field = 0; field < 7 && pos != std::string::npos; ++field)
+      pos = line.find(',', pos + (field ? 1 : 0));
+    if (pos != std::string::npos) keys.insert(line.substr(0, pos));
+  }
+  return keys;
+}
+
+std::string csvField(std::string text) {
+  for (char& ch : text)
+    if (ch == ',' || ch == '\n' || ch == '"') ch = ';';
+  return text;
+}
+
+void study(const StudyOptions& options) {
+  const Preset preset = presetNamed(options.preset);
+  const std::string build = buildId();
+  const bool existed = std::filesystem::exists(options.out);
+  const std::set<std::string> done = measuredKeys(options.out);
+  if (!std::filesystem::path(options.out).parent_path().empty())
+    std::filesystem::create_directories(std::filesystem::path(options.out).parent_path());
+  std::ofstream csv(options.out, std::ios::app);
+  if (!csv) throw InputError("--out: cannot write " + options.out);
+  if (!existed) csv << kHeader << "\n";
+
+  int measured = 0, skipped = 0;
+  for (const std::string& scene : preset.scenes) {
+    std::vector<Config> todo;
+    for (double dt : preset.dts)
+      for (int refine : preset.refines)
+        for (int ppc : preset.particles_per_cell) {
+          Config c{scene, "density_hybrid", dt, refine, ppc, preset.duration};
+          if (done.count(keyOf(build, c))) {
+            ++skipped;
+            continue;
+          }
+          todo.push_back(c);
+        }
+    if (todo.empty()) continue;
+
+    const Config ref_config = referenceFor(scene, preset);
+    std::fprintf(stderr, "study: %s reference (dt %s, cell/%d, %d per cell)\n", scene.c_str(),
+                 format(ref_config.dt).c_str(), ref_config.refine, ref_config.particles_per_cell);
+    const Outcome reference = simulate(options, ref_config);
+    if (reference.status != "finished")
+      throw SimulationError("study: the reference run of " + scene + " " + reference.status + ": " +
+                            reference.message);
+    const Scene base = loadScene(options.scenes + "/" + scene + ".json");
+    const Vec3 extent = base.extent();
+    const FieldGrid field{base.dimension, {extent[0], extent[1], extent[2]}, 64};
+    const double tower = towerLeftEdge(options, scene);
+
+    for (const Config& c : todo) {
+      const Outcome run = simulate(options, c);
+      std::string errors = ",,,,";
+      std::string claim = "";
+      const bool usable = run.status == "finished" || run.status == "escaped";
+      if (tower > 0 && usable) {
+        claim = thrownBallStaysOutside(run.frames, tower) ? "pass" : "fail";
+      }
+      std::string status = run.status;
+      if (claim == "fail" && status == "finished") status = "tunnelled";
+      if (usable) {
+        errors = format(densityFieldError(run.frames, reference.frames, field)) + "," +
+                 format(heightProfileError(run.frames, reference.frames, field)) + "," +
+                 format(centreOfMassPathError(run.frames, reference.frames)) + "," +
+                 (tower > 0 ? "" : format(freeFallError(run.frames, {0, -9.81, 0}, 0.08))) + ",";
+      }
+      csv << keyOf(build, c) << "," << format(run.cell_size) << "," << status << ","
+          << format(run.wall) << "," << run.steps << "," << run.particles << "," << errors << claim
+          << "," << csvField(run.message) << "\n";
+      csv.flush();
+      ++measured;
+      std::fprintf(stderr, "study: %s dt %s cell/%d ppc %d: %s, %.2f s\n", scene.c_str(),
+                   format(c.dt).c_str(), c.refine, c.particles_per_cell, status.c_str(), run.wall);
+    }
+  }
+  std::printf("study: %d runs measured, %d already measured for build %s; results in %s\n",
+              measured, skipped, build.c_str(), options.out.c_str());
+}
+
+}  // namespace
+
+void addStudyCommand(CLI::App& app) {
+  auto options = std::make_shared<StudyOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "study", "Measure speed against accuracy over solvers, time steps and resolutions");
+  cmd->add_option("--preset", options->preset, "tiny | quick | full")->capture_default_str();
+  cmd->add_flag_callback(
+      "--quick", [options] { options->preset = "quick"; },
+      "Same as --preset quick: a few minutes on 2 cores, for CI");
+  cmd->add_option("--scenes", options->scenes, "Directory holding the scene files")
+      ->capture_default_str();
+  cmd->add_option("-o,--out", options->out,
+                  "CSV file; rows already measured by this build "
+                  "are kept and skipped")
+      ->capture_default_str();
+  cmd->footer(
+      "Each row: the configuration, wall time, steps, particles, errors against a reference run "
+      "(density field, height profile, centre-of-mass path), the free-fall error, the report's "
+      "claim (thrown ball stays outside the tower) and how the run ended: finished, diverged "
+      "(stopped by the divergence check), nan, escaped (left the domain) or tunnelled. Failed "
+      "runs leave their error columns empty. Charts: scripts/charts.sh.");
+  cmd->callback([options] { study(*options); });
+}
+
+}  // namespace snowsim

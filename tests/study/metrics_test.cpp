@@ -1,0 +1,124 @@
+// The study's metrics on cases with known answers: identical runs, a shifted run, free fall,
+// a coarse run against a fine one.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/metrics.h"
+#include "sim/simulation.h"
+
+namespace snowsim {
+namespace {
+
+Snapshot blob(double time, double cx, double cy, int n) {
+  Snapshot s;
+  s.time = time;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    s.position.push_back({float(cx + 0.01 * std::cos(a)), float(cy + 0.01 * std::sin(a)), 0});
+    s.velocity.push_back({0, 0, 0});
+  }
+  return s;
+}
+
+Frames shifted(const Frames& frames, float dx, float dy) {
+  Frames out = frames;
+  for (Snapshot& s : out)
+    for (auto& p : s.position) p[0] += dx, p[1] += dy;
+  return out;
+}
+
+const FieldGrid kGrid{2, {0.1, 0.12, 0}, 64};
+
+TEST(Metrics, IdenticalRunsHaveZeroError) {
+  const Frames a = {blob(0, 0.05, 0.06, 40), blob(0.02, 0.05, 0.05, 40)};
+  EXPECT_EQ(densityFieldError(a, a, kGrid), 0);
+  EXPECT_EQ(heightProfileError(a, a, kGrid), 0);
+  EXPECT_EQ(centreOfMassPathError(a, a), 0);
+}
+
+TEST(Metrics, ShiftedRunGivesTheShift) {
+  const Frames a = {blob(0, 0.05, 0.06, 40), blob(0.02, 0.05, 0.05, 40)};
+  EXPECT_NEAR(centreOfMassPathError(shifted(a, 0.003f, 0.004f), a), 0.005, 1e-6);
+  // A vertical shift moves every column's top by the shift.
+  EXPECT_NEAR(heightProfileError(shifted(a, 0, 0.004f), a, kGrid), 0.004, 1e-6);
+  // Moved by more than the blob's size, the density fields no longer overlap.
+  EXPECT_NEAR(densityFieldError(shifted(a, 0.04f, 0), a, kGrid), 1.0, 1e-9);
+  EXPECT_GT(densityFieldError(shifted(a, 0.002f, 0), a, kGrid), 0.0);
+  EXPECT_LT(densityFieldError(shifted(a, 0.002f, 0), a, kGrid),
+            densityFieldError(shifted(a, 0.006f, 0), a, kGrid));
+}
+
+TEST(Metrics, DensityFieldDoesNotDependOnParticleCount) {
+  const Frames few = {blob(0, 0.05, 0.06, 400)};
+  const Frames many = {blob(0, 0.05, 0.06, 1600)};
+  EXPECT_LT(densityFieldError(few, many, kGrid), 0.01);
+}
+
+TEST(Metrics, FreeFallOfABallisticPathIsExact) {
+  Frames frames;
+  const double g = -9.81, vx = 0.5;
+  for (int f = 0; f <= 5; ++f) {
+    const double t = 0.02 * f;
+    Snapshot s = blob(t, 0.02 + vx * t, 0.08 + 0.5 * g * t * t, 20);
+    for (auto& v : s.velocity) v = {float(vx), float(g * t), 0};
+    frames.push_back(s);
+  }
+  EXPECT_LT(freeFallError(frames, {0, g, 0}, 1.0), 1e-6);
+  EXPECT_LT(momentumDrift(frames, {0, g, 0}, 1.0), 1e-5);
+  EXPECT_NEAR(freeFallError(frames, {0, 0, 0}, 1.0), 0.5 * 9.81 * 0.1 * 0.1, 1e-6);
+}
+
+TEST(Metrics, LandingTimeAndFrequency) {
+  Frames frames;
+  for (int f = 0; f <= 10; ++f) frames.push_back(blob(0.01 * f, 0.05, 0.06 - 0.005 * f, 8));
+  // The blob's lowest point (centre - 0.01) reaches 0.0 + margin 0.001 at centre 0.011: f = 10.
+  EXPECT_DOUBLE_EQ(landingTime(frames, membersLeftOf(frames[0], 1.0), 0.0, 0.0011), 0.1);
+  EXPECT_EQ(landingTime(frames, membersLeftOf(frames[0], 1.0), -1.0, 0.0), -1);
+  std::vector<double> t, y;
+  for (int i = 0; i < 1000; ++i)
+    t.push_back(i * 0.001), y.push_back(std::sin(2 * M_PI * 3 * t.back() + 0.3));
+  EXPECT_NEAR(oscillationFrequency(t, y), 3.0, 0.01);
+}
+
+TEST(Metrics, ThrownBallClaim) {
+  Snapshot start = blob(0, 0.02, 0.03, 20);
+  Snapshot tower = blob(0, 0.07, 0.02, 20);
+  start.position.insert(start.position.end(), tower.position.begin(), tower.position.end());
+  Snapshot stopped = start, through = start;
+  for (int i = 0; i < 20; ++i) stopped.position[i][0] += 0.03f, through.position[i][0] += 0.07f;
+  EXPECT_TRUE(thrownBallStaysOutside({start, stopped}, 0.055));
+  EXPECT_FALSE(thrownBallStaysOutside({start, through}, 0.055));
+}
+
+TEST(Metrics, PileHeightOrdering) {
+  const Snapshot tall = blob(0, 0.05, 0.04, 50), mid = blob(0, 0.05, 0.03, 50),
+                 low = blob(0, 0.05, 0.02, 50);
+  EXPECT_TRUE(pileHeightsOrdered(tall, mid, low));
+  EXPECT_FALSE(pileHeightsOrdered(low, mid, tall));
+}
+
+// With a real solver: a coarser time step lands farther from the reference than a finer one.
+Frames runDrop(double dt) {
+  const Scene scene = loadScene(std::string(SNOWSIM_SOURCE_DIR) + "/scenes/snowball_drop.json",
+                                {"time.dt=" + std::to_string(dt), "time.duration=0.2"});
+  auto sim = makeSimulation(scene);
+  Frames frames;
+  for (int f = 0; f <= scene.frameCount(); ++f) {
+    sim->advanceTo(f / scene.fps);
+    frames.push_back(sim->snapshot(f));
+  }
+  return frames;
+}
+
+TEST(Metrics, CoarserRunHasLargerError) {
+  const Frames reference = runDrop(0.00025), fine = runDrop(0.001), coarse = runDrop(0.008);
+  EXPECT_EQ(centreOfMassPathError(reference, reference), 0);
+  EXPECT_LT(centreOfMassPathError(fine, reference), centreOfMassPathError(coarse, reference));
+  EXPECT_LT(densityFieldError(fine, reference, kGrid), densityFieldError(coarse, reference, kGrid));
+  // Before it lands the ball falls freely, within a fraction of a cell.
+  EXPECT_LT(freeFallError(fine, {0, -9.81, 0}, 0.08), 0.002);
+}
+
+}  // namespace
+}  // namespace snowsim

@@ -1,0 +1,112 @@
+// snowsim study --preset tiny: the CSV has its columns, every unstable configuration was caught
+// (status, not NaN), and a rerun by the same build measures nothing again.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.push_back("");
+  return fields;
+}
+
+TEST(StudyCommand, TinyPresetWritesCaughtRowsAndSkipsOnRerun) {
+  const auto dir = std::filesystem::temp_directory_path() / "snowsim_study_test";
+  std::filesystem::remove_all(dir);
+  const std::string csv = (dir / "results.csv").string();
+  const std::string command = std::string(SNOWSIM_BINARY) + " study --preset tiny --scenes " +
+                              SNOWSIM_SOURCE_DIR + "/scenes -o " + csv;
+  ASSERT_EQ(std::system((command + " > " + (dir.string() + ".log")).c_str()), 0);
+
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  const auto header = split(line);
+  const std::vector<std::string> expected = {"build",
+                                             "scene",
+                                             "solver",
+                                             "dt",
+                                             "refine",
+                                             "particles_per_cell",
+                                             "duration",
+                                             "cell_size",
+                                             "status",
+                                             "wall_s",
+                                             "steps",
+                                             "particles",
+                                             "err_density",
+                                             "err_height_m",
+                                             "err_com_m",
+                                             "free_fall_err_m",
+                                             "claim_ball_outside",
+                                             "message"};
+  ASSERT_EQ(header, expected);
+  int rows = 0, finished = 0;
+  while (std::getline(in, line)) {
+    ++rows;
+    EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+    EXPECT_EQ(line.find("inf"), std::string::npos) << line;
+    const auto f = split(line);
+    ASSERT_EQ(f.size(), expected.size()) << line;
+    const std::string& status = f[8];
+    EXPECT_TRUE(status == "finished" || status == "diverged" || status == "escaped" ||
+                status == "tunnelled" || status == "nan")
+        << status;
+    if (status == "finished") {
+      ++finished;
+      EXPECT_FALSE(f[12].empty());
+      EXPECT_GE(std::stod(f[12]), 0.0);
+    }
+    if (status == "diverged" || status == "nan") {
+      EXPECT_TRUE(f[12].empty()) << line;
+    }
+  }
+  EXPECT_EQ(rows, 3);
+  EXPECT_GE(finished, 2);  // dt 0.004 and 0.002 are within the advection limit
+
+  // A rerun by the same build finds everything measured.
+  ASSERT_EQ(std::system((command + " > " + (dir.string() + ".log")).c_str()), 0);
+  std::ifstream log(dir.string() + ".log");
+  std::stringstream text;
+  text << log.rdbuf();
+  EXPECT_NE(text.str().find("0 runs measured, 3 already measured"), std::string::npos)
+      << text.str();
+}
+
+}  // namespace
+
+namespace {
+
+long stepsOfRun(const std::string& arguments) {
+  const auto dir = std::filesystem::temp_directory_path() / "snowsim_quality_test";
+  std::filesystem::remove_all(dir);
+  const std::string command = std::string(SNOWSIM_BINARY) + " run " + SNOWSIM_SOURCE_DIR +
+                              "/scenes/snowball_drop.json --no-png --no-ply -o " + dir.string() +
+                              " " + arguments + " 2>/dev/null";
+  if (std::system(command.c_str()) != 0) return -1;
+  std::ifstream in(dir / "run.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string json = text.str();
+  const auto at = json.find("\"steps\":");
+  return at == std::string::npos ? -2 : std::stol(json.substr(at + 8));
+}
+
+TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {
+  EXPECT_EQ(stepsOfRun("--quality draft"), 200);       // dt 0.005 over 1 s
+  EXPECT_EQ(stepsOfRun("--quality reference"), 2000);  // dt 0.0005
+  EXPECT_EQ(stepsOfRun("--quality draft --set time.dt=0.01"), 100);
+  EXPECT_EQ(stepsOfRun("--quality bogus"), -1);
+}
+
+}  // namespace

@@ -9,6 +9,7 @@ namespace snowsim {
 void addRunCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addFigureCommand(CLI::App& app);
+void addDiffCommand(CLI::App& app);
 void addStudyCommand(CLI::App& app);
 
 }  // namespace snowsim

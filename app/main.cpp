@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   snowsim::addRunCommand(app);
   snowsim::addRenderCommand(app);
   snowsim::addFigureCommand(app);
+  snowsim::addDiffCommand(app);
   snowsim::addStudyCommand(app);
   try {
     app.parse(argc, argv);

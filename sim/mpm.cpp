@@ -64,11 +64,12 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
 
 template <int D>
 void MpmSolver<D>::step(Real dt) {
-  const Real stable_dt = cflTimeStep();
+  const Real stable_dt =
+      params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
   binParticles();
   rasterise(dt);             // 1, 3: mass, momentum and forces to the grid
   updateGridVelocities(dt);  // 4: explicit update
-  // (6: the semi-implicit solve of section 9 goes here, acting on fields().velocity)
+  if (params_.integrator == MpmIntegrator::SemiImplicit) solveImplicitVelocities(dt);  // 6
   collideGrid();          // 5: grid collisions
   transferToParticles();  // 8 (gathered first, used by 7): particle velocities, grad v
   updateDeformation(dt);  // 7: F_E, plasticity
@@ -195,6 +196,23 @@ void MpmSolver<D>::updateGridVelocities(Real dt) {
 }
 
 template <int D>
+void MpmSolver<D>::solveImplicitVelocities(Real dt) {
+  const int n = particles_.size();
+  lame_.resize(n);
+  for (int p = 0; p < n; ++p) lame_[p] = lame(p);
+  implicit_.prepare(grid_, fields_, particles_, F_E_, lame_, params_, dt);
+  last_solve_ = implicit_.solve(fields_, params_.implicit_beta, params_.implicit_tolerance,
+                                params_.implicit_max_iterations);
+  if (!std::isfinite(last_solve_.residual)) {
+    std::ostringstream s;
+    s << file_ << ": semi-implicit MPM solve failed at step " << steps_ << " (t = " << time_
+      << " s): non-finite residual after " << last_solve_.iterations << " iterations; dt = " << dt
+      << " s";
+    throw SimulationError(s.str());
+  }
+}
+
+template <int D>
 void MpmSolver<D>::collideGrid() {
   const int nodes = grid_.nodeCount();
 #pragma omp parallel for schedule(static)
@@ -305,8 +323,18 @@ Real MpmSolver<D>::cflTimeStep() const {
 }
 
 template <int D>
+Real MpmSolver<D>::advectionTimeStep() const {
+  // The semi-implicit step has no elastic wave limit, only advection: dt <= C h / |v|max.
+  Real fastest = 0;
+  const int n = particles_.size();
+  for (int p = 0; p < n; ++p) fastest = std::max(fastest, particles_.v[p].norm());
+  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
+}
+
+template <int D>
 Real MpmSolver<D>::stableTimeStep() const {
-  return params_.adaptive_dt ? cflTimeStep() : std::numeric_limits<Real>::infinity();
+  if (!params_.adaptive_dt) return std::numeric_limits<Real>::infinity();
+  return params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
 }
 
 template <int D>

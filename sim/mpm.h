@@ -81,6 +81,10 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> particle_block_;
   std::vector<int> v_cursor_;  // counting-sort cursors, one per block
   std::vector<std::vector<int>> colour_blocks_;
+  // Threads only pay off for large scenes: on a busy machine, thread start-up and barriers of the
+  // dozen parallel loops per step cost more than a small scene's whole step.
+  static constexpr int parallel_min_particles = 4096;
+  bool parallel_ = false;
   long steps_ = 0;
   Real time_ = 0;
 };

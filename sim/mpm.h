@@ -90,6 +90,10 @@ class MpmSolver final : public Solver<D> {
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per-particle Lamé parameters handed to the implicit solve
   KrylovResult last_solve_;
+  // Threads only pay off for large scenes: on a busy machine, thread start-up and barriers of the
+  // dozen parallel loops per step cost more than a small scene's whole step.
+  static constexpr int parallel_min_particles = 4096;
+  bool parallel_ = false;
   long steps_ = 0;
   Real time_ = 0;
 };

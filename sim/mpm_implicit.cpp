@@ -47,7 +47,7 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
   stencil_nodes_ = Stencil<D, Kernel>::nodes;
   stencil_.resize(static_cast<size_t>(n) * stencil_nodes_);
   gradient_.resize(stencil_.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 4096)  // threads pay off only for large scenes
   for (int p = 0; p < n; ++p) {
     const Vec<D>& x = particles.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
@@ -73,7 +73,7 @@ void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen
   const int n = static_cast<int>(F_.size());
   const int S = stencil_nodes_;
   // Per particle (parallel, independent): dF_p = dt (sum_i u_i g_ip^T) F_E,p, then V_p^0 dP F^T.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 4096)  // threads pay off only for large scenes
   for (int p = 0; p < n; ++p) {
     Mat<D> grad_u = Mat<D>::Zero();
     for (int nd = 0; nd < S; ++nd) {

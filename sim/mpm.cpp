@@ -35,6 +35,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   colliders_ = makeColliders<D>(scene);
 
   const int n = particles_.size();
+  parallel_ = n >= parallel_min_particles;
   F_E_.assign(n, Mat<D>::Identity());
   J_P_.assign(n, 1);
   C_.assign(n, Mat<D>::Zero());
@@ -64,11 +65,12 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
 
 template <int D>
 void MpmSolver<D>::step(Real dt) {
-  const Real stable_dt = cflTimeStep();
+  const Real stable_dt =
+      params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
   binParticles();
   rasterise(dt);             // 1, 3: mass, momentum and forces to the grid
   updateGridVelocities(dt);  // 4: explicit update
-  // (6: the semi-implicit solve of section 9 goes here, acting on fields().velocity)
+  if (params_.integrator == MpmIntegrator::SemiImplicit) solveImplicitVelocities(dt);  // 6
   collideGrid();          // 5: grid collisions
   transferToParticles();  // 8 (gathered first, used by 7): particle velocities, grad v
   updateDeformation(dt);  // 7: F_E, plasticity
@@ -109,7 +111,7 @@ void MpmSolver<D>::rasterise(Real dt) {
   withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
   // Momentum to velocity; keep the rasterised velocity for the FLIP increment.
   const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int k = 0; k < nodes; ++k) {
     const Real m = fields_.mass[k];
     fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
@@ -126,7 +128,7 @@ void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
   const bool mls = params_.transfer == MpmTransfer::Mls;
   for (const std::vector<int>& colour : colour_blocks_) {
     const int count = static_cast<int>(colour.size());
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
     for (int c = 0; c < count; ++c) {
       const int b = colour[c];
       for (int o = block_start_[b]; o < block_start_[b + 1]; ++o) {
@@ -170,7 +172,7 @@ void MpmSolver<D>::computeParticleVolumes() {
   const Real cell_volume = std::pow(grid_.h, D);
   const int n = particles_.size();
   withKernel(params_.kernel, [&]<class Kernel>() {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
     for (int p = 0; p < n; ++p) {
       // rho_p^0 = sum_i m_i w_ip / h^D, V_p^0 = m_p / rho_p^0 (paper section 4 step 2).
       Real rho = 0;
@@ -187,7 +189,7 @@ void MpmSolver<D>::computeParticleVolumes() {
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
   const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int k = 0; k < nodes; ++k) {
     const Real m = fields_.mass[k];
     if (m > 0) fields_.velocity[k] += dt * (fields_.force[k] / m + gravity_);  // eq. 8, explicit
@@ -195,9 +197,26 @@ void MpmSolver<D>::updateGridVelocities(Real dt) {
 }
 
 template <int D>
+void MpmSolver<D>::solveImplicitVelocities(Real dt) {
+  const int n = particles_.size();
+  lame_.resize(n);
+  for (int p = 0; p < n; ++p) lame_[p] = lame(p);
+  implicit_.prepare(grid_, fields_, particles_, F_E_, lame_, params_, dt);
+  last_solve_ = implicit_.solve(fields_, params_.implicit_beta, params_.implicit_tolerance,
+                                params_.implicit_max_iterations);
+  if (!std::isfinite(last_solve_.residual)) {
+    std::ostringstream s;
+    s << file_ << ": semi-implicit MPM solve failed at step " << steps_ << " (t = " << time_
+      << " s): non-finite residual after " << last_solve_.iterations << " iterations; dt = " << dt
+      << " s";
+    throw SimulationError(s.str());
+  }
+}
+
+template <int D>
 void MpmSolver<D>::collideGrid() {
   const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int k = 0; k < nodes; ++k) {
     if (fields_.mass[k] <= 0) continue;
     const Vec<D> x = grid_.position(grid_.coords(k));
@@ -218,7 +237,7 @@ void MpmSolver<D>::gatherWith() {
   const MpmTransfer transfer = params_.transfer;
   const Real alpha = params_.flip_alpha;
   const int n = particles_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p) {
     const Vec<D> x = particles_.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
@@ -257,7 +276,7 @@ void MpmSolver<D>::gatherWith() {
 template <int D>
 void MpmSolver<D>::updateDeformation(Real dt) {
   const int n = particles_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p) {
     // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
     F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];            // eq. 10, F_E^trial
@@ -265,7 +284,7 @@ void MpmSolver<D>::updateDeformation(Real dt) {
   }
   if (params_.transfer == MpmTransfer::PicFlip) {
     // PIC/FLIP keeps no affine velocity: C_ must not feed the next rasterisation.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
     for (int p = 0; p < n; ++p) C_[p].setZero();
   }
 }
@@ -273,7 +292,7 @@ void MpmSolver<D>::updateDeformation(Real dt) {
 template <int D>
 void MpmSolver<D>::collideParticles() {
   const int n = particles_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p)
     for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
 }
@@ -282,7 +301,7 @@ template <int D>
 void MpmSolver<D>::advect(Real dt) {
   const int n = particles_.size();
   const Vec<D> extent = grid_.extent();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p) {
     Vec<D>& x = particles_.x[p];
     x += dt * particles_.v[p];
@@ -296,7 +315,7 @@ Real MpmSolver<D>::cflTimeStep() const {
   // dt <= C h / (c + |v|max), c = sqrt((lambda + 2 mu) / rho) with hardening (method-notes.md).
   Real fastest = 0;
   const int n = particles_.size();
-#pragma omp parallel for schedule(static) reduction(max : fastest)
+#pragma omp parallel for schedule(static) if (parallel_) reduction(max : fastest)
   for (int p = 0; p < n; ++p) {
     const Real c = pWaveSpeed(lame(p), particles_.density[p]);
     fastest = std::max(fastest, c + particles_.v[p].norm());
@@ -305,8 +324,18 @@ Real MpmSolver<D>::cflTimeStep() const {
 }
 
 template <int D>
+Real MpmSolver<D>::advectionTimeStep() const {
+  // The semi-implicit step has no elastic wave limit, only advection: dt <= C h / |v|max.
+  Real fastest = 0;
+  const int n = particles_.size();
+  for (int p = 0; p < n; ++p) fastest = std::max(fastest, particles_.v[p].norm());
+  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
+}
+
+template <int D>
 Real MpmSolver<D>::stableTimeStep() const {
-  return params_.adaptive_dt ? cflTimeStep() : std::numeric_limits<Real>::infinity();
+  if (!params_.adaptive_dt) return std::numeric_limits<Real>::infinity();
+  return params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
 }
 
 template <int D>

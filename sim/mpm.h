@@ -11,6 +11,7 @@
 
 #include "sim/collider.h"
 #include "sim/grid.h"
+#include "sim/mpm_implicit.h"
 #include "sim/scene.h"
 #include "sim/snow_material.h"
 #include "sim/solver.h"
@@ -39,17 +40,22 @@ class MpmSolver final : public Solver<D> {
   const MpmParams& params() const { return params_; }
   // The CFL step C h / (c + |v|max) of the current state, whether or not dt is adaptive.
   Real cflTimeStep() const;
+  // The advection limit C h / |v|max that bounds the semi-implicit step.
+  Real advectionTimeStep() const;
+  // The Krylov solve of the last semi-implicit step.
+  const KrylovResult& lastImplicitSolve() const { return last_solve_; }
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
-  void rasterise(Real dt);             // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
-  void computeParticleVolumes();       // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
-  void updateGridVelocities(Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void collideGrid();                  // 5. grid-based body collisions (section 8)
-  void updateDeformation(Real dt);     // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
-  void transferToParticles();          // 8. v_p by PIC/FLIP, APIC or MLS
-  void collideParticles();             // 9. particle-based body collisions (section 8)
-  void advect(Real dt);                // 10. x += dt v, kept out of colliders and in the domain
+  void rasterise(Real dt);                // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
+  void computeParticleVolumes();          // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
+  void updateGridVelocities(Real dt);     // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
+  void solveImplicitVelocities(Real dt);  // 6. semi-implicit: (I + beta dt^2 M^-1 d2Phi) v = v*
+  void collideGrid();                     // 5. grid-based body collisions (section 8)
+  void updateDeformation(Real dt);        // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
+  void transferToParticles();             // 8. v_p by PIC/FLIP, APIC or MLS
+  void collideParticles();                // 9. particle-based body collisions (section 8)
+  void advect(Real dt);                   // 10. x += dt v, kept out of colliders and in the domain
 
  private:
   void binParticles();
@@ -81,6 +87,13 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> particle_block_;
   std::vector<int> v_cursor_;  // counting-sort cursors, one per block
   std::vector<std::vector<int>> colour_blocks_;
+  ImplicitVelocitySolve<D> implicit_;
+  std::vector<Lame> lame_;  // per-particle Lamé parameters handed to the implicit solve
+  KrylovResult last_solve_;
+  // Threads only pay off for large scenes: on a busy machine, thread start-up and barriers of the
+  // dozen parallel loops per step cost more than a small scene's whole step.
+  static constexpr int parallel_min_particles = 4096;
+  bool parallel_ = false;
   long steps_ = 0;
   Real time_ = 0;
 };

@@ -129,9 +129,11 @@ MpmParams parseMpm(const Json* j, const std::string& file) {
                  ? KernelType::Quadratic
                  : KernelType::Cubic;
   const auto integrator = f.choice("integrator", {"explicit", "semi_implicit"}, "explicit");
-  if (integrator == "semi_implicit")
-    f.fail("integrator", "semi_implicit is not available in this build yet; allowed: explicit");
-  p.integrator = MpmIntegrator::Explicit;
+  p.integrator =
+      integrator == "semi_implicit" ? MpmIntegrator::SemiImplicit : MpmIntegrator::Explicit;
+  p.implicit_beta = f.number("beta", p.implicit_beta, 0, 1);
+  p.implicit_tolerance = f.number("tolerance", p.implicit_tolerance, 0, 1, true);
+  p.implicit_max_iterations = f.integer("max_iterations", p.implicit_max_iterations, 1, 100000);
   p.cfl = f.number("cfl", p.cfl, 0, 1, true);
   p.adaptive_dt = f.boolean("adaptive_dt", p.adaptive_dt);
   if (const Json* walls = f.object("walls", false)) {

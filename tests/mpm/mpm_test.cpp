@@ -249,11 +249,14 @@ TEST(Mpm, BadInputNamesTheField) {
 TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {1, -2};
+  j["bodies"][0]["center"] = {0.2, 0.15};
+  j["bodies"][0]["radius"] = 0.1;
+  j["particles_per_cell"] = 16;  // > 4096 particles: the threaded path runs
   j["grid"]["cells"] = {40, 30};
   auto runWith = [&](int threads) {
     omp_set_num_threads(threads);
     auto s = makeSolver<2>(j);
-    run(s, 0.02);
+    run(s, 0.004);
     return s.particles().x;
   };
   const auto a = runWith(1), b = runWith(1), c = runWith(2);

@@ -1,0 +1,76 @@
+// Speed of MPM snow: particle-steps per second (median of repetitions), 2D and 3D explicit MLS with
+// quadratic weights, 1 and 2 threads (and whether they agree bit for bit), bytes per particle.
+// Usage: mpm_bench [steps=100] [repetitions=5]
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "sim/json_fields.h"
+#include "sim/mpm.h"
+#include "sim/sampling.h"
+
+using namespace snowsim;
+
+namespace {
+
+Json sceneJson(int dimension, int cells, double box) {
+  Json j = Json::parse(R"({"name": "bench", "solver": "mpm", "particles_per_cell": 4,
+    "mpm": {"transfer": "mls", "kernel": "quadratic", "adaptive_dt": false}})");
+  j["dimension"] = dimension;
+  const double h = 1.0 / cells;
+  if (dimension == 2) {
+    j["grid"] = {{"cells", {cells, cells}}, {"cell_size", h}};
+    j["bodies"] = {{{"shape", "box"}, {"center", {0.5, 0.5}}, {"size", {box, box}}}};
+  } else {
+    j["grid"] = {{"cells", {cells, cells, cells}}, {"cell_size", h}};
+    j["particles_per_cell"] = 8;
+    j["bodies"] = {{{"shape", "box"}, {"center", {0.5, 0.5, 0.5}}, {"size", {box, box, box}}}};
+  }
+  return j;
+}
+
+template <int D>
+void measure(const char* label, const Json& j, int steps, int reps) {
+  const Scene scene = parseScene(j, "bench");
+  std::vector<Vec<D>> result[2];
+  double rate[2];
+  int n = 0;
+  for (int t = 1; t <= 2; ++t) {
+    omp_set_num_threads(t);
+    std::vector<double> rates;
+    for (int r = 0; r < reps; ++r) {
+      MpmSolver<D> s(scene, sampleBodies<D>(scene));
+      n = s.particles().size();
+      const Real dt = 0.5 * s.cflTimeStep();
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int k = 0; k < steps; ++k) s.step(dt);
+      const double sec =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      rates.push_back(double(n) * steps / sec);
+      result[t - 1] = s.particles().x;
+    }
+    std::nth_element(rates.begin(), rates.begin() + reps / 2, rates.end());
+    rate[t - 1] = rates[reps / 2];
+  }
+  const size_t bytes =
+      sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 3 + sizeof(Mat<D>) * 2 + sizeof(Vec<D>);
+  std::printf(
+      "%s: %d particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f), "
+      "bit-identical: %s, %zu bytes/particle\n",
+      label, n, rate[0] / 1e6, rate[1] / 1e6, rate[1] / rate[0],
+      result[0] == result[1] ? "yes" : "NO", bytes);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
+  const int reps = argc > 2 ? std::atoi(argv[2]) : 5;
+  measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.4), steps, reps);
+  measure<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6), steps, reps);
+  measure<3>("3D MLS quadratic", sceneJson(3, 32, 0.5), steps, reps);
+}

@@ -52,11 +52,11 @@ struct MpmParams {
   double flip_alpha = 0.95;  // PIC/FLIP blend (paper section 8: 0.95)
   KernelType kernel = KernelType::Quadratic;
   MpmIntegrator integrator = MpmIntegrator::Explicit;
-  double implicit_beta = 1;         // semi-implicit: 1 backward Euler, 0.5 trapezoidal, 0 explicit
+  double implicit_beta = 1;          // semi-implicit: 1 backward Euler, 0.5 trapezoidal, 0 explicit
   double implicit_tolerance = 1e-5;  // semi-implicit: relative residual of the Krylov solve
   int implicit_max_iterations = 200;  // semi-implicit: Krylov iteration cap per step
-  double cfl = 0.5;         // C of dt <= C h / (c + |v|max)
-  bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
+  double cfl = 0.5;                   // C of dt <= C h / (c + |v|max)
+  bool adaptive_dt = true;            // false: time.dt is used as is (to study stability)
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
 };

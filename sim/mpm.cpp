@@ -146,13 +146,8 @@ void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
         const Stencil<D, Kernel> s(x, inv_h);
         const int base = grid_.index(s.base);
         for (int nd = 0; nd < s.nodes; ++nd) {
-          int k = base;
           Vec<D> dx;
-          for (int a = 0; a < D; ++a) {
-            const int off = s.offset(nd, a);
-            k += off * grid_.stride[a];
-            dx[a] = (s.base[a] + off) * h - x[a];
-          }
+          const int k = stencilNode(grid_, s, base, nd, x, dx);
           const Real w = s.weight(nd);
           fields_.mass[k] += w * m;
           // Momentum, eq. 1; APIC/MLS add the affine part m C (x_i - x_p) (Jiang et al. 2015).
@@ -245,13 +240,8 @@ void MpmSolver<D>::gatherWith() {
     Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
     Mat<D> B = Mat<D>::Zero();
     for (int nd = 0; nd < s.nodes; ++nd) {
-      int k = base;
       Vec<D> dx;
-      for (int a = 0; a < D; ++a) {
-        const int off = s.offset(nd, a);
-        k += off * grid_.stride[a];
-        dx[a] = (s.base[a] + off) * h - x[a];
-      }
+      const int k = stencilNode(grid_, s, base, nd, x, dx);
       const Real w = s.weight(nd);
       const Vec<D>& vi = fields_.velocity[k];
       v_pic += w * vi;

@@ -53,13 +53,8 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
     const Stencil<D, Kernel> s(x, inv_h);
     const int base = grid.index(s.base);
     for (int nd = 0; nd < s.nodes; ++nd) {
-      int k = base;
       Vec<D> dx;
-      for (int a = 0; a < D; ++a) {
-        const int off = s.offset(nd, a);
-        k += off * grid.stride[a];
-        dx[a] = (s.base[a] + off) * h - x[a];
-      }
+      const int k = stencilNode(grid, s, base, nd, x, dx);
       const size_t e = static_cast<size_t>(p) * stencil_nodes_ + nd;
       stencil_[e] = active_of_[k];
       gradient_[e] = affine ? Vec<D>(s.weight(nd) * D_inv * dx) : Vec<D>(s.gradient(nd, inv_h));

@@ -19,6 +19,20 @@ inline void forEachStencilNode(const GridGeometry<D>& grid, const Vec<D>& x, F&&
   }
 }
 
+// Flat index of node n of a particle's stencil (base: the flat index of the stencil's first
+// node), and the node's offset x_i - x_p from the particle, as APIC/MLS need it.
+template <int D, class Kernel>
+inline int stencilNode(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, int base, int n,
+                       const Vec<D>& x, Vec<D>& dx) {
+  int k = base;
+  for (int a = 0; a < D; ++a) {
+    const int off = s.offset(n, a);
+    k += off * grid.stride[a];
+    dx[a] = (s.base[a] + off) * grid.h - x[a];
+  }
+  return k;
+}
+
 // Runs f.template operator()<Kernel>() for the kernel type chosen at run time.
 template <class F>
 decltype(auto) withKernel(KernelType kernel, F&& f) {

@@ -56,8 +56,8 @@ void measure(const char* label, const Json& j, int steps, int reps) {
     std::nth_element(rates.begin(), rates.begin() + reps / 2, rates.end());
     rate[t - 1] = rates[reps / 2];
   }
-  const size_t bytes =
-      sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 3 + sizeof(Mat<D>) * 2 + sizeof(Vec<D>);
+  const size_t bytes = sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 3 +
+                       sizeof(Mat<D>) * 3 + sizeof(Vec<D>) + sizeof(Lame);
   std::printf(
       "%s: %d particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f), "
       "bit-identical: %s, %zu bytes/particle\n",

@@ -67,28 +67,38 @@ struct Stencil {
     for (int a = 0; a < D; ++a) base[a] = Kernel::weights(x[a] * inv_h, w[a], dw[a]);
   }
 
-  // Offset of stencil node n (0 <= n < nodes) along axis a.
+  // Offset of stencil node n (0 <= n < nodes) along axis a; axis 0 varies fastest.
   static int offset(int n, int a) {
     for (int k = 0; k < a; ++k) n /= support;
     return n % support;
   }
 
-  Real weight(int n) const {
+  // The weight and its gradient (eq. 6, in 1/m) at the node with per-axis offsets o.
+  Real weightAt(const int (&o)[D]) const {
     Real r = 1;
-    for (int a = 0; a < D; ++a) r *= w[a][offset(n, a)];
+    for (int a = 0; a < D; ++a) r *= w[a][o[a]];
     return r;
   }
-
-  // Gradient of the weight with respect to the particle position (eq. 6), in 1/m.
-  Vec<D> gradient(int n, Real inv_h) const {
+  Vec<D> gradientAt(const int (&o)[D], Real inv_h) const {
     Vec<D> g;
     for (int a = 0; a < D; ++a) {
-      Real r = dw[a][offset(n, a)] * inv_h;
+      Real r = dw[a][o[a]] * inv_h;
       for (int b = 0; b < D; ++b)
-        if (b != a) r *= w[b][offset(n, b)];
+        if (b != a) r *= w[b][o[b]];
       g[a] = r;
     }
     return g;
+  }
+
+  Real weight(int n) const {
+    int o[D];
+    for (int a = 0; a < D; ++a) o[a] = offset(n, a);
+    return weightAt(o);
+  }
+  Vec<D> gradient(int n, Real inv_h) const {
+    int o[D];
+    for (int a = 0; a < D; ++a) o[a] = offset(n, a);
+    return gradientAt(o, inv_h);
   }
 
   IVec<D> node(int n) const {

@@ -20,13 +20,41 @@ Vec<D> collideVelocity(const Vec<D>& v, const Vec<D>& n, const Vec<D>& collider_
 }
 
 template <int D>
+Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v) {
+  Mat<D> free = Mat<D>::Identity();
+  int contacts = 0;
+  for (const Collider<D>& c : colliders) {
+    if (c.phi(x) > 0) continue;
+    const Vec<D> n = c.outwardNormal(x);
+    const Vec<D> v_rel = v - c.velocity;
+    const Real v_n = v_rel.dot(n);
+    if (c.type == ColliderType::Separating && v_n >= 0) continue;
+    // The static friction branch of collideVelocity: the node sticks.
+    const bool sticks =
+        c.type == ColliderType::Sticky ||
+        (c.type == ColliderType::Separating && (v_rel - v_n * n).norm() <= -c.friction * v_n);
+    v = collideVelocity<D>(v, n, c.velocity, c.type, c.friction);
+    if (++contacts > 1 || sticks) {
+      free.setZero();
+    } else {
+      free -= n * n.transpose();
+    }
+  }
+  return free;
+}
+
+template <int D>
 Real Collider<D>::phi(const Vec<D>& x) const {
   const Vec<D> r = x - position;
   switch (shape) {
     case ColliderShape::HalfSpace:
       return r.dot(normal);
-    case ColliderShape::Sphere:
-      return r.head(shape_dims).norm() - radius;
+    case ColliderShape::Sphere: {
+      // A loop, not r.head(shape_dims).norm(): GCC 12 warns (falsely) on the dynamic head.
+      Real r2 = 0;
+      for (int a = 0; a < shape_dims; ++a) r2 += r[a] * r[a];
+      return std::sqrt(r2) - radius;
+    }
     case ColliderShape::Box: {
       Real outside = 0, inside = -std::numeric_limits<Real>::infinity();
       for (int a = 0; a < shape_dims; ++a) {
@@ -105,6 +133,8 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
   return colliders;
 }
 
+template Mat<2> collideAndConstrain<2>(const std::vector<Collider<2>>&, const Vec<2>&, Vec<2>&);
+template Mat<3> collideAndConstrain<3>(const std::vector<Collider<3>>&, const Vec<3>&, Vec<3>&);
 template Vec<2> collideVelocity<2>(const Vec<2>&, const Vec<2>&, const Vec<2>&, ColliderType, Real);
 template Vec<3> collideVelocity<3>(const Vec<3>&, const Vec<3>&, const Vec<3>&, ColliderType, Real);
 template struct Collider<2>;

@@ -49,6 +49,14 @@ struct Collider {
   void advance(Real dt) { position += dt * velocity; }
 };
 
+// Applies every collider to the grid velocity v at node x (as Collider::collide does) and returns
+// the projection onto the velocity components the collisions left free, for a semi-implicit solve
+// that must hold the collided components (Stomakhin et al. 2013, section 9: collisions on v*
+// first): identity for a free node, I - n n^T where a slip or sliding contact fixes the normal
+// component, zero where the node sticks (sticky, static friction, or two contacts).
+template <int D>
+Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v);
+
 // The 2D walls of the domain box [0, extent] as half spaces, plus the scene's colliders. The walls
 // along a 2D scene's extruded z axis are frictionless slip walls, so a slab behaves like 2D.
 template <int D>

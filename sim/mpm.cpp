@@ -33,11 +33,15 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   grid_ = GridGeometry<D>(cells, scene.cell_size);
   fields_.resize(grid_.nodeCount());
   colliders_ = makeColliders<D>(scene);
+  for (const Body& body : scene.bodies) body_density_.push_back(body.density);
 
   const int n = particles_.size();
   parallel_ = n >= parallel_min_particles;
   F_E_.assign(n, Mat<D>::Identity());
+  R_E_.assign(n, Mat<D>::Identity());
   J_P_.assign(n, 1);
+  lame_.resize(n);
+  for (int p = 0; p < n; ++p) updateLame(p);
   C_.assign(n, Mat<D>::Zero());
   v_grid_.assign(n, Vec<D>::Zero());
   order_.resize(n);
@@ -61,17 +65,24 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   binParticles();
   rasterise(0);
   computeParticleVolumes();
+  measureSpeeds();
 }
 
 template <int D>
 void MpmSolver<D>::step(Real dt) {
   const Real stable_dt =
       params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
+  if (dt > stable_dt && step_when_exceeded_ < 0) {
+    limit_when_exceeded_ = stable_dt;
+    step_when_exceeded_ = steps_;
+  }
   binParticles();
   rasterise(dt);             // 1, 3: mass, momentum and forces to the grid
   updateGridVelocities(dt);  // 4: explicit update
-  if (params_.integrator == MpmIntegrator::SemiImplicit) solveImplicitVelocities(dt);  // 6
-  collideGrid();          // 5: grid collisions
+  if (params_.integrator == MpmIntegrator::SemiImplicit)
+    solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
+  else
+    collideGrid();        // 5: grid collisions
   transferToParticles();  // 8 (gathered first, used by 7): particle velocities, grad v
   updateDeformation(dt);  // 7: F_E, plasticity
   collideParticles();     // 9
@@ -79,7 +90,8 @@ void MpmSolver<D>::step(Real dt) {
   for (Collider<D>& c : colliders_) c.advance(dt);
   ++steps_;
   time_ += dt;
-  checkBlowUp(dt, stable_dt);
+  measureSpeeds();
+  checkBlowUp(dt);
 }
 
 template <int D>
@@ -141,22 +153,26 @@ void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
         // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
         const Real V0 = particles_.volume[p];
         const Mat<D> stress =
-            V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], lame(p))) : Mat<D>::Zero();
+            V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
+                   : Mat<D>::Zero();
         const Mat<D> stress_mls = D_inv * stress;
         const Stencil<D, Kernel> s(x, inv_h);
-        const int base = grid_.index(s.base);
-        for (int nd = 0; nd < s.nodes; ++nd) {
-          Vec<D> dx;
-          const int k = stencilNode(grid_, s, base, nd, x, dx);
-          const Real w = s.weight(nd);
+        visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+          const int k = node.index;
+          const Real w = s.weightAt(node.offset);
           fields_.mass[k] += w * m;
           // Momentum, eq. 1; APIC/MLS add the affine part m C (x_i - x_p) (Jiang et al. 2015).
-          fields_.velocity[k] += affine ? Vec<D>(w * (mv + mC * dx)) : Vec<D>(w * mv);
-          if (mls)
-            fields_.force[k] += w * (stress_mls * dx);
-          else
-            fields_.force[k] += stress * s.gradient(nd, inv_h);
-        }
+          Vec<D> momentum = mv;
+          if (affine) momentum.noalias() += mC * node.dx;
+          fields_.velocity[k] += w * momentum;
+          if (mls) {
+            Vec<D> force;
+            force.noalias() = stress_mls * node.dx;
+            fields_.force[k] += w * force;
+          } else {
+            fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
+          }
+        });
       }
     }
   }
@@ -164,8 +180,16 @@ void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
 
 template <int D>
 void MpmSolver<D>::computeParticleVolumes() {
-  const Real cell_volume = std::pow(grid_.h, D);
   const int n = particles_.size();
+  if (params_.initial_volume == InitialVolume::Lattice) {
+    // Each particle carries its share of its body: V_p^0 = m_p / rho_body = spacing^D.
+    for (int p = 0; p < n; ++p) {
+      particles_.density[p] = body_density_[particles_.body[p]];
+      particles_.volume[p] = particles_.mass[p] / particles_.density[p];
+    }
+    return;
+  }
+  const Real cell_volume = std::pow(grid_.h, D);
   withKernel(params_.kernel, [&]<class Kernel>() {
 #pragma omp parallel for schedule(static) if (parallel_)
     for (int p = 0; p < n; ++p) {
@@ -193,12 +217,16 @@ void MpmSolver<D>::updateGridVelocities(Real dt) {
 
 template <int D>
 void MpmSolver<D>::solveImplicitVelocities(Real dt) {
-  const int n = particles_.size();
-  lame_.resize(n);
-  for (int p = 0; p < n; ++p) lame_[p] = lame(p);
+  // Section 9: grid collisions act on v* before the solve, which then holds what they fixed.
+  const int nodes = grid_.nodeCount();
+  node_free_.resize(nodes);
+  for (int k = 0; k < nodes; ++k)
+    if (fields_.mass[k] > 0)
+      node_free_[k] =
+          collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
   implicit_.prepare(grid_, fields_, particles_, F_E_, lame_, params_, dt);
-  last_solve_ = implicit_.solve(fields_, params_.implicit_beta, params_.implicit_tolerance,
-                                params_.implicit_max_iterations);
+  last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
+                                params_.implicit_tolerance, params_.implicit_max_iterations);
   if (!std::isfinite(last_solve_.residual)) {
     std::ostringstream s;
     s << file_ << ": semi-implicit MPM solve failed at step " << steps_ << " (t = " << time_
@@ -236,22 +264,20 @@ void MpmSolver<D>::gatherWith() {
   for (int p = 0; p < n; ++p) {
     const Vec<D> x = particles_.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
-    const int base = grid_.index(s.base);
     Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
     Mat<D> B = Mat<D>::Zero();
-    for (int nd = 0; nd < s.nodes; ++nd) {
-      Vec<D> dx;
-      const int k = stencilNode(grid_, s, base, nd, x, dx);
-      const Real w = s.weight(nd);
-      const Vec<D>& vi = fields_.velocity[k];
+    visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+      const Real w = s.weightAt(node.offset);
+      const Vec<D>& vi = fields_.velocity[node.index];
       v_pic += w * vi;
       if (transfer == MpmTransfer::PicFlip) {
-        dv += w * (vi - fields_.velocity_old[k]);
-        B += vi * s.gradient(nd, inv_h).transpose();  // grad v_p = sum_i v_i grad w_ip^T (eq. 10)
+        dv += w * (vi - fields_.velocity_old[node.index]);
+        // grad v_p = sum_i v_i grad w_ip^T (eq. 10)
+        B += vi * s.gradientAt(node.offset, inv_h).transpose();
       } else {
-        B += w * vi * dx.transpose();  // APIC B_p (Jiang et al. 2015, eq. 10)
+        B += w * vi * node.dx.transpose();  // APIC B_p (Jiang et al. 2015, eq. 10)
       }
-    }
+    });
     if (transfer == MpmTransfer::PicFlip) {
       // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
       particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
@@ -269,8 +295,9 @@ void MpmSolver<D>::updateDeformation(Real dt) {
 #pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p) {
     // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
-    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];            // eq. 10, F_E^trial
-    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p]);  // eqs. 11-12
+    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];                     // eq. 10, F_E^trial
+    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p], R_E_[p]);  // eqs. 11-12
+    updateLame(p);
   }
   if (params_.transfer == MpmTransfer::PicFlip) {
     // PIC/FLIP keeps no affine velocity: C_ must not feed the next rasterisation.
@@ -301,25 +328,35 @@ void MpmSolver<D>::advect(Real dt) {
 }
 
 template <int D>
-Real MpmSolver<D>::cflTimeStep() const {
-  // dt <= C h / (c + |v|max), c = sqrt((lambda + 2 mu) / rho) with hardening (method-notes.md).
-  Real fastest = 0;
+void MpmSolver<D>::measureSpeeds() {
+  Real speed = 0, signal = 0;
+  bool finite = true;
   const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_) reduction(max : fastest)
+#pragma omp parallel for schedule(static) if (parallel_) reduction(max : speed, signal) \
+    reduction(&& : finite)
   for (int p = 0; p < n; ++p) {
-    const Real c = pWaveSpeed(lame(p), particles_.density[p]);
-    fastest = std::max(fastest, c + particles_.v[p].norm());
+    const Real v = particles_.v[p].norm();
+    finite = finite && std::isfinite(v) && particles_.x[p].allFinite();
+    speed = std::max(speed, v);
+    signal = std::max(signal, pWaveSpeed(lame_[p], particles_.density[p]) + v);
   }
-  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
+  fastest_speed_ = speed;
+  fastest_signal_ = signal;
+  finite_ = finite;
+}
+
+template <int D>
+Real MpmSolver<D>::cflTimeStep() const {
+  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (method-notes.md).
+  return fastest_signal_ > 0 ? params_.cfl * grid_.h / fastest_signal_
+                             : std::numeric_limits<Real>::infinity();
 }
 
 template <int D>
 Real MpmSolver<D>::advectionTimeStep() const {
   // The semi-implicit step has no elastic wave limit, only advection: dt <= C h / |v|max.
-  Real fastest = 0;
-  const int n = particles_.size();
-  for (int p = 0; p < n; ++p) fastest = std::max(fastest, particles_.v[p].norm());
-  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
+  return fastest_speed_ > 0 ? params_.cfl * grid_.h / fastest_speed_
+                            : std::numeric_limits<Real>::infinity();
 }
 
 template <int D>
@@ -329,29 +366,23 @@ Real MpmSolver<D>::stableTimeStep() const {
 }
 
 template <int D>
-void MpmSolver<D>::checkBlowUp(Real dt, Real stable_dt) const {
+void MpmSolver<D>::checkBlowUp(Real dt) const {
   // An explicit step beyond its limit grows exponentially; a particle crossing more than a cell
   // per step or a non-finite velocity is where we stop it.
-  Real fastest = 0;
-  bool finite = true;
-  const int n = particles_.size();
-  for (int p = 0; p < n; ++p) {
-    const Real s = particles_.v[p].norm();
-    if (!std::isfinite(s) || !particles_.x[p].allFinite()) {
-      finite = false;
-      break;
-    }
-    fastest = std::max(fastest, s);
-  }
-  if (finite && fastest * dt <= grid_.h) return;
+  if (finite_ && fastest_speed_ * dt <= grid_.h) return;
   std::ostringstream s;
   s << file_ << ": MPM blew up at step " << steps_ << " (t = " << time_ << " s): largest speed ";
-  if (finite)
-    s << fastest << " m/s moves a particle more than a cell per step";
+  if (finite_)
+    s << fastest_speed_ << " m/s moves a particle more than a cell per step";
   else
     s << "overflowed (non-finite)";
-  s << "; dt = " << dt << " s, the explicit CFL limit was " << stable_dt
-    << " s; set mpm.adaptive_dt=true or time.dt below " << stable_dt;
+  s << "; dt = " << dt << " s";
+  if (step_when_exceeded_ >= 0)
+    s << " exceeded the CFL limit from step " << step_when_exceeded_ << " on, when that limit was "
+      << limit_when_exceeded_ << " s; set mpm.adaptive_dt=true or time.dt below "
+      << limit_when_exceeded_;
+  else
+    s << " kept within the CFL limit; lower mpm.cfl";
   throw SimulationError(s.str());
 }
 

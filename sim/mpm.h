@@ -6,6 +6,7 @@
 // particles().volume, lame()).
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -35,10 +36,10 @@ class MpmSolver final : public Solver<D> {
   const std::vector<Real>& plasticJ() const { return J_P_; }
   const std::vector<Mat<D>>& affine() const { return C_; }
   const SnowMaterial& material() const { return material_; }
-  Lame lame(int p) const { return hardenedLame(material_, J_P_[p]); }
+  Lame lame(int p) const { return lame_[p]; }
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
   const MpmParams& params() const { return params_; }
-  // The CFL step C h / (c + |v|max) of the current state, whether or not dt is adaptive.
+  // The CFL step C h / (c + |v|)max of the current state, whether or not dt is adaptive.
   Real cflTimeStep() const;
   // The advection limit C h / |v|max that bounds the semi-implicit step.
   Real advectionTimeStep() const;
@@ -47,15 +48,16 @@ class MpmSolver final : public Solver<D> {
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
-  void rasterise(Real dt);                // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
-  void computeParticleVolumes();          // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
-  void updateGridVelocities(Real dt);     // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void solveImplicitVelocities(Real dt);  // 6. semi-implicit: (I + beta dt^2 M^-1 d2Phi) v = v*
-  void collideGrid();                     // 5. grid-based body collisions (section 8)
-  void updateDeformation(Real dt);        // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
-  void transferToParticles();             // 8. v_p by PIC/FLIP, APIC or MLS
-  void collideParticles();                // 9. particle-based body collisions (section 8)
-  void advect(Real dt);                   // 10. x += dt v, kept out of colliders and in the domain
+  void rasterise(Real dt);             // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
+  void computeParticleVolumes();       // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
+  void updateGridVelocities(Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
+  void solveImplicitVelocities(
+      Real dt);                     // 5 + 6. collide v*, then (I + beta dt^2 M^-1 d2Phi) v = v*
+  void collideGrid();               // 5. grid-based body collisions (section 8)
+  void updateDeformation(Real dt);  // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
+  void transferToParticles();       // 8. v_p by PIC/FLIP, APIC or MLS
+  void collideParticles();          // 9. particle-based body collisions (section 8)
+  void advect(Real dt);             // 10. x += dt v, kept out of colliders and in the domain
 
  private:
   void binParticles();
@@ -63,7 +65,9 @@ class MpmSolver final : public Solver<D> {
   void rasteriseWith(Real dt);
   template <class Kernel>
   void gatherWith();
-  void checkBlowUp(Real dt, Real stable_dt) const;
+  void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
+  void measureSpeeds();
+  void checkBlowUp(Real dt) const;
 
   MpmParams params_;
   SnowMaterial material_;
@@ -71,12 +75,14 @@ class MpmSolver final : public Solver<D> {
   std::string file_;
   Particles<D> particles_;
   std::vector<Mat<D>> F_E_;     // elastic deformation gradient
+  std::vector<Mat<D>> R_E_;     // its polar rotation, from the last return mapping
   std::vector<Real> J_P_;       // det F_P, plastic volume ratio
   std::vector<Mat<D>> C_;       // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<Vec<D>> v_grid_;  // per particle: interpolated grid velocity (PIC part)
   GridGeometry<D> grid_;
   GridFields<D> fields_;
   std::vector<Collider<D>> colliders_;
+  std::vector<Real> body_density_;  // rest density of each body of the scene
   std::vector<Vec<D>> node_position_;
   // Deterministic parallel P2G: particles binned into blocks of 4^D cells, blocks processed in 2^D
   // colours so no two blocks of a colour write the same node; fixed order within a block.
@@ -88,8 +94,17 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> v_cursor_;  // counting-sort cursors, one per block
   std::vector<std::vector<int>> colour_blocks_;
   ImplicitVelocitySolve<D> implicit_;
-  std::vector<Lame> lame_;  // per-particle Lamé parameters handed to the implicit solve
+  std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
+  // Measured once at the end of each step, read by the CFL limits and the blow-up check.
+  Real fastest_speed_ = 0;   // max |v_p|
+  Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
+  bool finite_ = true;       // every position and velocity finite
+  // The stable dt at the first step a fixed dt exceeded it, before the blow-up inflated the speeds
+  // (what checkBlowUp recommends), and that step.
+  Real limit_when_exceeded_ = std::numeric_limits<Real>::infinity();
+  int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
+  std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
   // Threads only pay off for large scenes: on a busy machine, thread start-up and barriers of the
   // dozen parallel loops per step cost more than a small scene's whole step.
   static constexpr int parallel_min_particles = 4096;

@@ -32,6 +32,7 @@ void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFi
   const Eigen::Index n = static_cast<Eigen::Index>(active_.size()) * D;
   rhs_.resize(n);
   x_.resize(n);
+  projected_.resize(n);
   work_.resize(n);
 }
 
@@ -51,14 +52,13 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
   for (int p = 0; p < n; ++p) {
     const Vec<D>& x = particles.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
-    const int base = grid.index(s.base);
-    for (int nd = 0; nd < s.nodes; ++nd) {
-      Vec<D> dx;
-      const int k = stencilNode(grid, s, base, nd, x, dx);
-      const size_t e = static_cast<size_t>(p) * stencil_nodes_ + nd;
-      stencil_[e] = active_of_[k];
-      gradient_[e] = affine ? Vec<D>(s.weight(nd) * D_inv * dx) : Vec<D>(s.gradient(nd, inv_h));
-    }
+    size_t e = static_cast<size_t>(p) * stencil_nodes_;
+    visitStencil(grid, s, x, [&](const StencilVisit<D>& node) {
+      stencil_[e] = active_of_[node.index];
+      gradient_[e] = affine ? Vec<D>(s.weightAt(node.offset) * D_inv * node.dx)
+                            : Vec<D>(s.gradientAt(node.offset, inv_h));
+      ++e;
+    });
   }
 }
 
@@ -109,16 +109,46 @@ void ImplicitVelocitySolve<D>::scatter(const Eigen::VectorXd& u, GridFields<D>& 
 }
 
 template <int D>
-KrylovResult ImplicitVelocitySolve<D>::solve(GridFields<D>& fields, Real beta, Real tolerance,
-                                             int max_iterations) {
-  // M A v = M v*, started from v* (paper section 9: conjugate residual).
+void ImplicitVelocitySolve<D>::applyConstrained(const Eigen::VectorXd& u, Eigen::VectorXd& y,
+                                                Real beta) const {
+  const int active = activeNodes();
+  for (int a = 0; a < active; ++a) {
+    const Eigen::Index i = static_cast<Eigen::Index>(a) * D;
+    projected_.template segment<D>(i) = free_[a] * u.template segment<D>(i);
+  }
+  applyMassWeighted(projected_, y, beta);
+  for (int a = 0; a < active; ++a) {
+    const Eigen::Index i = static_cast<Eigen::Index>(a) * D;
+    const Vec<D> held = u.template segment<D>(i) - projected_.template segment<D>(i);
+    y.template segment<D>(i) = free_[a] * y.template segment<D>(i) + mass_[a] * held;
+  }
+}
+
+template <int D>
+KrylovResult ImplicitVelocitySolve<D>::solve(GridFields<D>& fields,
+                                             const std::vector<Mat<D>>& node_free, Real beta,
+                                             Real tolerance, int max_iterations) {
+  const int active = activeNodes();
+  free_.resize(active);
+  for (int a = 0; a < active; ++a) free_[a] = node_free[active_[a]];
+  // Right-hand side P (M v* - M A (I - P) v*) + (I - P) M v*, with v* (collided) as the start:
+  // it already holds the collided components (paper section 9: conjugate residual).
   gather(fields, x_);
-  for (int a = 0; a < activeNodes(); ++a)
-    rhs_.template segment<D>(static_cast<Eigen::Index>(a) * D) =
-        mass_[a] * x_.template segment<D>(static_cast<Eigen::Index>(a) * D);
+  for (int a = 0; a < active; ++a) {
+    const Eigen::Index i = static_cast<Eigen::Index>(a) * D;
+    projected_.template segment<D>(i) =
+        x_.template segment<D>(i) - free_[a] * x_.template segment<D>(i);
+  }
+  applyMassWeighted(projected_, rhs_, beta);  // M A (I - P) v*
+  for (int a = 0; a < active; ++a) {
+    const Eigen::Index i = static_cast<Eigen::Index>(a) * D;
+    const Vec<D> Mv = mass_[a] * x_.template segment<D>(i);
+    rhs_.template segment<D>(i) =
+        free_[a] * (Mv - rhs_.template segment<D>(i)) + (Mv - free_[a] * Mv);
+  }
   const KrylovResult result = conjugateResidual(
-      [&](const Eigen::VectorXd& u, Eigen::VectorXd& y) { applyMassWeighted(u, y, beta); }, rhs_,
-      x_, tolerance, max_iterations, work_);
+      [&](const Eigen::VectorXd& u, Eigen::VectorXd& y) { applyConstrained(u, y, beta); }, rhs_, x_,
+      tolerance, max_iterations, work_);
   scatter(x_, fields);
   return result;
 }

@@ -25,8 +25,12 @@ class ImplicitVelocitySolve {
                const Particles<D>& particles, const std::vector<Mat<D>>& F_E,
                const std::vector<Lame>& lame, const MpmParams& params, Real dt);
 
-  // Replaces fields.velocity (v*) of the active nodes by the solution v^{n+1}.
-  KrylovResult solve(GridFields<D>& fields, Real beta, Real tolerance, int max_iterations);
+  // Replaces fields.velocity (v*, already collided) of the active nodes by the solution v^{n+1}.
+  // node_free (per grid node) projects onto the velocity components the collisions left free
+  // (collideAndConstrain); the others keep their collided value: the solve runs on
+  // P M A P u + (I - P) M u = P (M v* - M A (I - P) v*) + (I - P) M v*, still symmetric.
+  KrylovResult solve(GridFields<D>& fields, const std::vector<Mat<D>>& node_free, Real beta,
+                     Real tolerance, int max_iterations);
 
   // y = M A u = M u - beta dt df(u) over the active nodes (flat, D entries per node), with
   // df_i = -sum_p V_p^0 dP(F_E,p; dF_p) F_E,p^T g_ip and dF_p = dt (sum_i u_i g_ip^T) F_E,p.
@@ -38,6 +42,8 @@ class ImplicitVelocitySolve {
   void scatter(const Eigen::VectorXd& u, GridFields<D>& fields) const;
 
  private:
+  // y = P M A P u + (I - P) M u, the operator with the collided components held.
+  void applyConstrained(const Eigen::VectorXd& u, Eigen::VectorXd& y, Real beta) const;
   template <class Kernel>
   void prepareWith(const GridGeometry<D>& grid, const Particles<D>& particles,
                    const MpmParams& params);
@@ -53,8 +59,10 @@ class ImplicitVelocitySolve {
   std::vector<Mat<D>> F_;         // F_E,p
   std::vector<Lame> lame_;        // hardened Lamé parameters, frozen within the step
   mutable std::vector<Mat<D>> stress_differential_;  // V_p^0 dP F_E^T per particle
+  std::vector<Mat<D>> free_;  // per active node: projection onto the free components
   ConjugateResidualWork work_;
   Eigen::VectorXd rhs_, x_;
+  mutable Eigen::VectorXd projected_;  // P u inside applyConstrained
 };
 
 }  // namespace snowsim

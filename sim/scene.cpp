@@ -85,6 +85,23 @@ Vec3 toVec3(const std::vector<double>& v) {
   return r;
 }
 
+// Extents of a box: every one must be positive.
+Vec3 positiveExtents(JsonFields& f, const std::string& key, int dimension) {
+  const Vec3 size = toVec3(f.numbers(key, std::nullopt, {dimension}));
+  for (int a = 0; a < dimension; ++a)
+    if (!(size[a] > 0)) f.fail(key, "every extent must be positive; allowed: (0, inf) m");
+  return size;
+}
+
+// A direction, normalised; the zero vector is refused.
+Vec3 unitDirection(JsonFields& f, const std::string& key, Vec3 direction) {
+  double n2 = 0;
+  for (double x : direction) n2 += x * x;
+  if (!(n2 > 0)) f.fail(key, "must not be the zero vector");
+  for (double& x : direction) x /= std::sqrt(n2);
+  return direction;
+}
+
 DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
   DensityHybridParams p;
   if (!j) return p;
@@ -136,6 +153,9 @@ MpmParams parseMpm(const Json* j, const std::string& file) {
   p.implicit_max_iterations = f.integer("max_iterations", p.implicit_max_iterations, 1, 100000);
   p.cfl = f.number("cfl", p.cfl, 0, 1, true);
   p.adaptive_dt = f.boolean("adaptive_dt", p.adaptive_dt);
+  p.initial_volume = f.choice("initial_volume", {"lattice", "grid_density"}, "lattice") == "lattice"
+                         ? InitialVolume::Lattice
+                         : InitialVolume::GridDensity;
   if (const Json* walls = f.object("walls", false)) {
     JsonFields w(*walls, "mpm.walls", file);
     p.wall_type = parseColliderType(w, "type", "separating");
@@ -169,18 +189,12 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
                                   : ColliderShape::Box;
   c.position = toVec3(f.numbers("position", std::nullopt, dims));
   if (c.shape == ColliderShape::HalfSpace) {
-    c.normal = toVec3(f.numbers("normal", std::nullopt, dims));
-    double n2 = 0;
-    for (double x : c.normal) n2 += x * x;
-    if (!(n2 > 0)) f.fail("normal", "must not be the zero vector");
-    for (double& x : c.normal) x /= std::sqrt(n2);
+    c.normal = unitDirection(f, "normal", toVec3(f.numbers("normal", std::nullopt, dims)));
   } else if (c.shape == ColliderShape::Sphere) {
     c.radius = f.number("radius", std::nullopt);
     if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
   } else {
-    c.size = toVec3(f.numbers("size", std::nullopt, dims));
-    for (int a = 0; a < scene.authored_dimension; ++a)
-      if (!(c.size[a] > 0)) f.fail("size", "every extent must be positive; allowed: (0, inf) m");
+    c.size = positiveExtents(f, "size", scene.authored_dimension);
   }
   c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
   c.type = parseColliderType(f, "type", "separating");
@@ -210,18 +224,14 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
                              : BodyShape::HalfBall;
   b.center = toVec3(f.numbers("center", std::nullopt, dims));
   if (b.shape == BodyShape::Box) {
-    b.size = toVec3(f.numbers("size", std::nullopt, dims));
-    for (int a = 0; a < scene.authored_dimension; ++a)
-      if (!(b.size[a] > 0)) f.fail("size", "every extent must be positive");
+    b.size = positiveExtents(f, "size", scene.authored_dimension);
   } else {
     b.radius = f.number("radius", std::nullopt, 0, 1e6, true);
   }
   if (b.shape == BodyShape::HalfBall) {
-    b.cut_normal = toVec3(f.numbers("cut_normal", std::vector<double>(dims[0], 0.0), dims));
-    if (!f.has("cut_normal")) b.cut_normal[1] = 1;
-    double n2 = 0;
-    for (double c : b.cut_normal) n2 += c * c;
-    if (!(n2 > 0)) f.fail("cut_normal", "must not be the zero vector");
+    Vec3 cut = toVec3(f.numbers("cut_normal", std::vector<double>(dims[0], 0.0), dims));
+    if (!f.has("cut_normal")) cut[1] = 1;
+    b.cut_normal = unitDirection(f, "cut_normal", cut);
   }
   b.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
   b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);

@@ -44,6 +44,10 @@ struct DensityHybridParams {
 // MPM snow (Stomakhin et al. 2013): transfers, kernel, time integration, walls; docs/mpm.md.
 enum class MpmTransfer { PicFlip, Apic, Mls };
 enum class MpmIntegrator { Explicit, SemiImplicit };
+// V_p^0: the particle's share of its body's volume (spacing^D of the sampling lattice), or the
+// paper's estimate m_p / rho_p^0 with rho_p^0 rasterised to the grid (section 4 step 2), which
+// overestimates the volume of particles near a free surface (docs/mpm.md).
+enum class InitialVolume { Lattice, GridDensity };
 enum class ColliderType { Sticky, Slip, Separating };
 enum class ColliderShape { HalfSpace, Sphere, Box };
 
@@ -55,8 +59,9 @@ struct MpmParams {
   double implicit_beta = 1;          // semi-implicit: 1 backward Euler, 0.5 trapezoidal, 0 explicit
   double implicit_tolerance = 1e-5;  // semi-implicit: relative residual of the Krylov solve
   int implicit_max_iterations = 200;  // semi-implicit: Krylov iteration cap per step
-  double cfl = 0.5;                   // C of dt <= C h / (c + |v|max)
-  bool adaptive_dt = true;            // false: time.dt is used as is (to study stability)
+  double cfl = 0.9;         // C of dt <= C h / (c + |v|max); the measured limit is 2.5-4x C = 0.5
+  bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
+  InitialVolume initial_volume = InitialVolume::Lattice;
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
 };

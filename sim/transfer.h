@@ -6,31 +6,45 @@
 
 namespace snowsim {
 
+// The node of a particle's stencil being visited: flat grid index, per-axis offsets into the
+// stencil (for Stencil::weightAt / gradientAt) and x_i - x_p, which APIC/MLS need.
+template <int D>
+struct StencilVisit {
+  int index;
+  int offset[D];
+  Vec<D> dx;
+};
+
+// Calls f(const StencilVisit<D>&) for every node of the particle's stencil, axis 0 fastest. The
+// offsets advance like an odometer: no integer division per node in the transfer hot loops.
+template <int D, class Kernel, class F>
+inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x,
+                         F&& f) {
+  constexpr int S = Kernel::support;
+  Real dx[D][S];
+  for (int a = 0; a < D; ++a)
+    for (int o = 0; o < S; ++o) dx[a][o] = (s.base[a] + o) * grid.h - x[a];
+  StencilVisit<D> v{grid.index(s.base), {}, {}};
+  for (int n = 0; n < Stencil<D, Kernel>::nodes; ++n) {
+    for (int a = 0; a < D; ++a) v.dx[a] = dx[a][v.offset[a]];
+    f(static_cast<const StencilVisit<D>&>(v));
+    for (int a = 0; a < D; ++a) {
+      v.index += grid.stride[a];
+      if (++v.offset[a] < S) break;
+      v.index -= S * grid.stride[a];
+      v.offset[a] = 0;
+    }
+  }
+}
+
 // Calls f(node_index, weight, weight_gradient) for every node of the particle's stencil.
 template <int D, class Kernel, class F>
 inline void forEachStencilNode(const GridGeometry<D>& grid, const Vec<D>& x, F&& f) {
   const Real inv_h = 1 / grid.h;
   const Stencil<D, Kernel> s(x, inv_h);
-  const int base = grid.index(s.base);
-  for (int n = 0; n < s.nodes; ++n) {
-    int k = base;
-    for (int a = 0; a < D; ++a) k += s.offset(n, a) * grid.stride[a];
-    f(k, s.weight(n), s.gradient(n, inv_h));
-  }
-}
-
-// Flat index of node n of a particle's stencil (base: the flat index of the stencil's first
-// node), and the node's offset x_i - x_p from the particle, as APIC/MLS need it.
-template <int D, class Kernel>
-inline int stencilNode(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, int base, int n,
-                       const Vec<D>& x, Vec<D>& dx) {
-  int k = base;
-  for (int a = 0; a < D; ++a) {
-    const int off = s.offset(n, a);
-    k += off * grid.stride[a];
-    dx[a] = (s.base[a] + off) * grid.h - x[a];
-  }
-  return k;
+  visitStencil(grid, s, x, [&](const StencilVisit<D>& v) {
+    f(v.index, s.weightAt(v.offset), s.gradientAt(v.offset, inv_h));
+  });
 }
 
 // Runs f.template operator()<Kernel>() for the kernel type chosen at run time.

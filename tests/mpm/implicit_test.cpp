@@ -193,12 +193,10 @@ TEST(SemiImplicit, BetaZeroReproducesExplicit3D) {
 }
 
 // The snowball drop of the report with the MPM solver: at ten times the explicit CFL step the
-// explicit integrator is stopped as diverged and the semi-implicit one stays bounded.
-// DISABLED: it passed on the 24-particle ball the solve was developed on, but on the shipped
-// 25-particle ball (scenes/snowball_drop.json) the semi-implicit run blows up at the ground
-// impact (step 88, t = 0.133 s). The solve runs before the grid collisions, so its forces never
-// see the ground; issue 4's stability requirement is not met until that is fixed.
-TEST(SemiImplicit, DISABLED_StableAtTenTimesExplicitStepOnSnowballDrop) {
+// explicit integrator is stopped as diverged and the semi-implicit one stays bounded through the
+// ground impact. (It blew up there while the solve ran before the grid collisions; the collided
+// nodes are now held inside the solve, paper section 9.)
+TEST(SemiImplicit, StableAtTenTimesExplicitStepOnSnowballDrop) {
   const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/snowball_drop.json";
   const Scene probe = loadScene(path, {"solver=mpm"});
   const Real explicit_limit = MpmSolver<2>(probe, sampleBodies<2>(probe)).cflTimeStep();
@@ -242,3 +240,35 @@ TEST(SemiImplicit, DISABLED_StableAtTenTimesExplicitStepOnSnowballDrop) {
 }
 
 }  // namespace
+
+// The contact constraints the semi-implicit solve holds: which velocity components a collision
+// fixes at a grid node on the ground, by collider type and friction.
+TEST(SemiImplicit, CollisionsReportTheComponentsTheyFix) {
+  Collider<2> ground;
+  ground.normal = Vec<2>(0, 1);
+  const Vec<2> on_ground(0.3, 0), n(0, 1);
+  const Mat<2> normal_fixed = Mat<2>::Identity() - n * n.transpose();
+  const std::vector<Collider<2>> colliders{ground};
+  auto constrain = [&](ColliderType type, Real friction, Vec<2> v, Vec<2>& out) {
+    std::vector<Collider<2>> c = colliders;
+    c[0].type = type;
+    c[0].friction = friction;
+    out = v;
+    return collideAndConstrain<2>(c, on_ground, out);
+  };
+  Vec<2> v;
+  // Sliding into the ground without friction: the normal component is fixed at zero.
+  EXPECT_EQ(constrain(ColliderType::Separating, 0, Vec<2>(1, -1), v), normal_fixed);
+  EXPECT_EQ(v, Vec<2>(1, 0));
+  // Enough friction to stop the tangential motion: the node sticks, everything is fixed.
+  EXPECT_EQ(constrain(ColliderType::Separating, 2, Vec<2>(1, -1), v), Mat<2>::Zero());
+  EXPECT_EQ(v, Vec<2>::Zero());
+  // Leaving the ground: nothing is fixed.
+  EXPECT_EQ(constrain(ColliderType::Separating, 2, Vec<2>(1, 1), v), Mat<2>::Identity());
+  // Slip holds the normal component whatever its sign; sticky holds everything.
+  EXPECT_EQ(constrain(ColliderType::Slip, 0, Vec<2>(0, 1), v), normal_fixed);
+  EXPECT_EQ(constrain(ColliderType::Sticky, 0, Vec<2>(1, 1), v), Mat<2>::Zero());
+  // Off the collider: free.
+  Vec<2> above(0.5, 0.5);
+  EXPECT_EQ(collideAndConstrain<2>(colliders, Vec<2>(0.3, 0.1), above), Mat<2>::Identity());
+}

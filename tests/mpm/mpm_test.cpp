@@ -162,9 +162,13 @@ TEST(Mpm, PlasticityBoundsAndCompaction) {
   const SnowMaterial m = s.material();
   int compacted = 0;
   for (int i = 0; i < s.particles().size(); ++i) {
-    const Eigen::JacobiSVD<Mat<2>> svd(s.elasticGradient()[i]);
-    EXPECT_GE(svd.singularValues().minCoeff(), 1 - m.theta_c - 1e-9);
-    EXPECT_LE(svd.singularValues().maxCoeff(), 1 + m.theta_s + 1e-9);
+    // Singular values of F_E as square roots of the eigenvalues of F_E^T F_E: independent of the
+    // solver's own SVD.
+    const Mat<2>& F = s.elasticGradient()[i];
+    const Vec<2> sigma =
+        Eigen::SelfAdjointEigenSolver<Mat<2>>(F.transpose() * F).eigenvalues().cwiseSqrt();
+    EXPECT_GE(sigma.minCoeff(), 1 - m.theta_c - 1e-9);
+    EXPECT_LE(sigma.maxCoeff(), 1 + m.theta_s + 1e-9);
     if (s.plasticJ()[i] < 0.95) {
       ++compacted;
       EXPECT_GT(s.lame(i).mu, m.mu0());  // hardening: compacted snow is stiffer
@@ -200,30 +204,42 @@ TEST(Mpm, TwoAndThreeDimensionsAgreeOnAZUniformScene) {
     s2.step(5e-5);
     s3.step(5e-5);
   }
-  // Measured: the centres of mass differ by 3.8 mm after 0.075 s. The cause: the
-  // first-step volumes (rho_p = sum_i m_i w_ip / h^3) of a one-cell-deep slab see the kernel's
-  // z-support cut by the slab, which scales the stress of the 3D run (left unfixed; see report).
+  // Measured: the centres of mass differ by 0.03 mm after 0.075 s. (3.8 mm with the paper's
+  // grid-density volumes, mpm.initial_volume = grid_density: the one-cell-deep slab cuts the
+  // kernel's z-support, which overestimates the 3D volumes and so the stress.)
   Vec<2> c2 = Vec<2>::Zero(), c3 = Vec<2>::Zero();
   for (const Vec<2>& x : s2.particles().x) c2 += x / s2.particles().size();
   for (const Vec<3>& x : s3.particles().x) c3 += x.head<2>() / s3.particles().size();
-  EXPECT_LT((c2 - c3).norm(), 5e-3);
+  EXPECT_LT((c2 - c3).norm(), 1e-4);
   for (const Vec<3>& v : s3.particles().v) EXPECT_EQ(v[2], 0);
 }
 
 TEST(Mpm, ExplicitAboveTheCflLimitIsStopped) {
-  Scene scene = loadScene(SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json",
-                          {"solver=mpm", "mpm.adaptive_dt=false", "time.dt=0.001"});
-  auto sim = makeSimulation(scene);
+  // Measured on the snowball drop: explicit MPM is stable at a fixed dt of 0.001 s and blows up
+  // at 0.0015 s; 0.003 s is well beyond.
+  const std::string path = SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json";
+  auto sim =
+      makeSimulation(loadScene(path, {"solver=mpm", "mpm.adaptive_dt=false", "time.dt=0.003"}));
+  std::string what;
   try {
     sim->advanceTo(1.0);
     FAIL() << "no blow-up detected";
   } catch (const SimulationError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("at step"), std::string::npos) << what;
-    EXPECT_NE(what.find("largest speed"), std::string::npos) << what;
-    EXPECT_NE(what.find("CFL limit"), std::string::npos) << what;
-    EXPECT_EQ(what.find("nan"), std::string::npos) << what;
+    what = e.what();
   }
+  EXPECT_NE(what.find("at step"), std::string::npos) << what;
+  EXPECT_NE(what.find("largest speed"), std::string::npos) << what;
+  EXPECT_NE(what.find("CFL limit"), std::string::npos) << what;
+  EXPECT_EQ(what.find("nan"), std::string::npos) << what;
+
+  // The time step it recommends runs.
+  const std::string marker = "time.dt below ";
+  ASSERT_NE(what.find(marker), std::string::npos) << what;
+  const double recommended = std::stod(what.substr(what.find(marker) + marker.size()));
+  EXPECT_LT(recommended, 0.003);
+  auto rerun = makeSimulation(loadScene(
+      path, {"solver=mpm", "mpm.adaptive_dt=false", "time.dt=" + std::to_string(recommended)}));
+  EXPECT_NO_THROW(rerun->advanceTo(0.2));
 }
 
 TEST(Mpm, BadInputNamesTheField) {
@@ -266,4 +282,90 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     EXPECT_EQ(a[i], b[i]);
     EXPECT_EQ(a[i], c[i]);
   }
+}
+
+// The report's Fig. 8 scene with the MPM solver: the thrown ball (body 1) hits the tower (body 0)
+// and stays on its side; the report's method lets it through at dt = 0.01
+// (tests/report/report_scenes_test.cpp keeps that failure).
+TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
+  const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/column_thrown_ball.json";
+  for (const char* transfer : {"pic_flip", "apic", "mls"}) {
+    const Scene scene = loadScene(path, {"solver=mpm", std::string("mpm.transfer=") + transfer});
+    MpmSolver<2> solver(scene, sampleBodies<2>(scene));
+    const Particles<2>& p = solver.particles();
+    // The ball does reach the tower: its front comes within a cell of the tower's left face.
+    Real ball_front = 0;
+    for (int k = 0; k < 50; ++k) {
+      run(solver, 0.01);
+      for (int i = 0; i < p.size(); ++i)
+        if (p.body[i] == 1) ball_front = std::max(ball_front, p.x[i][0]);
+    }
+    const Real tower_left = 0.06;  // scenes/column_thrown_ball.json: centre 0.07, width 0.02
+    EXPECT_GT(ball_front, tower_left - scene.cell_size) << transfer;
+    Real tower_right = 0, tower_centre = 0, ball_centre = 0;
+    int tower_n = 0, ball_n = 0, ball_beyond_centre = 0;
+    for (int i = 0; i < p.size(); ++i)
+      if (p.body[i] == 0)
+        tower_right = std::max(tower_right, p.x[i][0]), tower_centre += p.x[i][0], ++tower_n;
+    tower_centre /= tower_n;
+    for (int i = 0; i < p.size(); ++i) {
+      if (p.body[i] != 1) continue;
+      ball_centre += p.x[i][0], ++ball_n;
+      if (p.x[i][0] > tower_centre) ++ball_beyond_centre;
+    }
+    ball_centre /= ball_n;
+    EXPECT_LT(ball_centre, tower_centre) << transfer;
+    EXPECT_EQ(ball_beyond_centre, 0) << transfer;
+  }
+}
+
+// An elastic bar (no plasticity, no hardening, nu = 0 so the axial stress is E times the strain)
+// set ringing in its first free-free axial mode, u = A cos(pi x / L) sin(omega t): it vibrates
+// at omega = pi c / L with c = sqrt(E / rho), period T = 2 L / c. The period is measured from the
+// zero crossings of the mean axial velocity of the bar's right quarter.
+TEST(Mpm, ElasticBarVibratesAtItsAnalyticFrequency) {
+  const Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05;
+  Json j = Json::parse(R"({
+    "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
+    "grid": {"cells": [60, 12], "cell_size": 0.005},
+    "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
+    "particles_per_cell": 4,
+    "mpm": {"transfer": "apic"},
+    "material": {"E0": 100000, "nu": 0, "theta_c": 0.9, "theta_s": 0.9, "xi": 0},
+    "bodies": [{"shape": "box", "center": [0.15, 0.03], "size": [0.2, 0.02], "density": 400}]
+  })");
+  const Scene scene = parseScene(j, "bar.json");
+  Particles<2> particles = sampleBodies<2>(scene);
+  const Real left = 0.15 - length / 2;
+  for (int i = 0; i < particles.size(); ++i)
+    particles.v[i] = Vec<2>(amplitude * std::cos(M_PI * (particles.x[i][0] - left) / length), 0);
+  MpmSolver<2> solver(scene, std::move(particles));
+
+  const Real c = std::sqrt(E / rho), period = 2 * length / c;
+  auto endVelocity = [&] {
+    const Particles<2>& p = solver.particles();
+    Real v = 0;
+    int n = 0;
+    for (int i = 0; i < p.size(); ++i)
+      if (p.x[i][0] > left + 0.75 * length) v += p.v[i][0], ++n;
+    return v / n;
+  };
+  // The end velocity starts at -amplitude-ish and crosses zero at T/4, 3T/4, 5T/4, ...
+  std::vector<Real> crossings;
+  Real t = 0, previous = endVelocity();
+  while (t < 2.2 * period && crossings.size() < 3) {
+    const Real dt = solver.stableTimeStep();
+    solver.step(dt);
+    t += dt;
+    const Real v = endVelocity();
+    if ((previous < 0) != (v < 0)) crossings.push_back(t - dt * v / (v - previous));
+    previous = v;
+  }
+  ASSERT_EQ(crossings.size(), 3u);
+  const Real measured = crossings[2] - crossings[0];
+  // Measured 1.0007. With the paper's grid-density volumes (mpm.initial_volume = grid_density)
+  // 0.912: the rasterised density is low near the bar's free surfaces, so V_p^0 and the
+  // stiffness come out 23% too large on a bar four cells thick.
+  EXPECT_NEAR(measured / period, 1.0, 0.02)
+      << "measured period " << measured << " s, analytic " << period << " s";
 }

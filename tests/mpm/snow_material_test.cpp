@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <random>
+
 using namespace snowsim;
 
 TEST(SnowMaterial, LameFromYoungAndPoisson) {
@@ -52,7 +56,8 @@ TEST(SnowMaterial, PiolaIsTheEnergyGradient) {
       Fm(i, j) -= eps;
       EXPECT_NEAR((psi(Fp) - psi(Fm)) / (2 * eps), P(i, j), 1e-7);
     }
-  EXPECT_LT((fixedCorotatedKirchhoff<2>(F, lame) - P * F.transpose()).norm(), 1e-12);
+  EXPECT_LT((fixedCorotatedKirchhoff<2>(F, polarRotation<2>(F), lame) - P * F.transpose()).norm(),
+            1e-12);
 }
 
 TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
@@ -69,7 +74,44 @@ TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
   }
   EXPECT_LT((F_E * F_P - F).norm(), 1e-12);
   EXPECT_NEAR(J_P, F_P.determinant(), 1e-12);
-  Mat<3> F_E2 = F;
-  EXPECT_NEAR(plasticReturnMappingJ<3>(m, F_E2, 1.0), J_P, 1e-12);
+  Mat<3> F_E2 = F, R_E;
+  EXPECT_NEAR(plasticReturnMappingJ<3>(m, F_E2, 1.0, R_E), J_P, 1e-12);
+  EXPECT_LT((R_E - polarRotation<3>(F_E2)).norm(), 1e-12) << "the rotation of the new F_E";
   EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
+}
+
+// The 3x3 SVD on what snow meets: near rotations (nearly equal singular values), stretches,
+// reflections and a rank-one matrix. U and V are rotations, the product rebuilds F, and the
+// singular values match Eigen's JacobiSVD up to the sign of the last.
+TEST(SnowMaterial, ThreeByThreeSvdReconstructs) {
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0, 1);
+  auto randomMatrix = [&](double scale) {
+    Mat<3> M;
+    for (int i = 0; i < 9; ++i) M(i / 3, i % 3) = scale * noise(random);
+    return M;
+  };
+  std::vector<Mat<3>> cases;
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Quaterniond q(noise(random), noise(random), noise(random), noise(random));
+    const Mat<3> R = q.normalized().toRotationMatrix();
+    cases.push_back(R * (Mat<3>::Identity() + randomMatrix(1e-9)));  // near a rotation
+    cases.push_back(R * (Mat<3>::Identity() + randomMatrix(0.02)));  // plastic-range strain
+    cases.push_back(randomMatrix(1));                                // anything
+  }
+  cases.push_back(Vec<3>(1, 2, 3) * Vec<3>(0.5, -1, 2).transpose());  // rank one
+  cases.push_back(Mat<3>::Identity());
+  for (const Mat<3>& F : cases) {
+    Mat<3> U, V;
+    Vec<3> s;
+    signedSvd<3>(F, U, s, V);
+    const double scale = std::max(1.0, F.norm());
+    EXPECT_LT((U * s.asDiagonal() * V.transpose() - F).norm(), 1e-12 * scale) << F;
+    EXPECT_LT((U.transpose() * U - Mat<3>::Identity()).norm(), 1e-12) << F;
+    EXPECT_LT((V.transpose() * V - Mat<3>::Identity()).norm(), 1e-12) << F;
+    EXPECT_NEAR(U.determinant(), 1, 1e-12);
+    EXPECT_NEAR(V.determinant(), 1, 1e-12);
+    const Vec<3> reference = Eigen::JacobiSVD<Mat<3>>(F).singularValues();
+    EXPECT_LT((s.cwiseAbs() - reference).norm(), 1e-10 * scale) << F;
+  }
 }

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/commands.h"
+#include "app/interrupt.h"
 #include "sim/errors.h"
 
 int main(int argc, char** argv) {
@@ -26,6 +27,9 @@ int main(int argc, char** argv) {
   } catch (const snowsim::InputError& e) {
     std::fprintf(stderr, "snowsim: error: %s\n", e.what());
     return 2;
+  } catch (const snowsim::Interrupted& e) {
+    std::fprintf(stderr, "snowsim: %s\n", e.what());
+    return 128 + e.signal;
   } catch (const snowsim::SimulationError& e) {
     std::fprintf(stderr, "snowsim: simulation failed: %s\n", e.what());
     return 3;

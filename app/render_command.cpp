@@ -1,10 +1,13 @@
 // snowsim render DIR: renders saved PLY frames again, e.g. with another colour or size.
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 
+#include <nlohmann/json.hpp>
+
 #include "app/commands.h"
-#include "app/png_sink.h"
+#include "app/render_sink.h"
 #include "sim/errors.h"
 #include "sim/files.h"
 #include "sim/ply.h"
@@ -19,25 +22,45 @@ struct RenderCommandOptions {
   RenderOptions render;
 };
 
+// The frame rate and scene name recorded by `snowsim run`, if the directory has its run.json.
+void readRunSummary(const std::filesystem::path& dir, double& fps, std::string& name) {
+  std::ifstream in(dir / "run.json");
+  if (!in) return;
+  const auto summary = nlohmann::json::parse(in, nullptr, false);
+  if (summary.is_discarded()) return;
+  fps = summary.value("fps", fps);
+  name = summary.value("scene", name);
+}
+
 void renderFrames(const RenderCommandOptions& options) {
-  const RenderSettings settings = options.render.settings();
   std::vector<std::filesystem::path> files;
   for (const auto& entry : std::filesystem::directory_iterator(options.frames))
     if (entry.path().extension() == ".ply") files.push_back(entry.path());
   if (files.empty()) throw InputError(options.frames + ": no .ply frames in this directory");
   std::sort(files.begin(), files.end());
+  double fps = 30;
+  std::string name = "frames";
+  readRunSummary(options.frames, fps, name);
+  // Every setting is checked before anything is written.
+  const RenderSettings settings = options.render.settings(RenderSettings{});
+  if (settings.color_by == ColorBy::Plastic && readPly(files.front().string()).plastic_j.empty())
+    throw InputError("--color-by plastic: " + files.front().string() +
+                     " has no plastic compression (J_P); only MPM runs write it");
+  const VideoSettings video = options.render.videoSettings(fps);
   const std::string out = options.out.empty() ? options.frames : options.out;
   prepareOutputDirectory(out);
-  PngSink sink(out, settings);
+  RenderSink sink(settings, options.render.png ? out : "",
+                  options.render.mp4 ? out + "/" + name + ".mp4" : "", video);
   for (const auto& file : files) sink.write(readPly(file.string()));
+  sink.finish();
 }
 
 }  // namespace
 
 void addRenderCommand(CLI::App& app) {
   auto options = std::make_shared<RenderCommandOptions>();
-  CLI::App* cmd =
-      app.add_subcommand("render", "Render saved PLY frames (from `snowsim run`) to PNG images");
+  CLI::App* cmd = app.add_subcommand(
+      "render", "Render saved PLY frames (from `snowsim run`) to PNG images and an MP4");
   cmd->add_option("frames", options->frames, "Directory holding frame_NNNNN.ply files")
       ->required()
       ->check(CLI::ExistingDirectory);

@@ -9,8 +9,10 @@
 
 #include "app/commands.h"
 #include "app/frame_sink.h"
-#include "app/png_sink.h"
+#include "app/interrupt.h"
 #include "app/quality.h"
+#include "app/render_sink.h"
+#include "render/scene_render.h"
 #include "sim/errors.h"
 #include "sim/files.h"
 #include "sim/ply.h"
@@ -26,7 +28,6 @@ struct RunOptions {
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
   bool ply = true;
-  bool png = true;
   RenderOptions render;
 };
 
@@ -62,22 +63,37 @@ class Progress {
 };
 
 void run(const RunOptions& options) {
-  // The quality level's settings first, so the user's --set still wins.
-  std::vector<std::string> overrides = qualityOverrides(options.quality);
+  // The quality level's settings (for the scene's solver and dimension) first, so the user's
+  // --set still wins.
+  std::vector<std::string> overrides =
+      qualityOverrides(options.quality, loadScene(options.scene, options.overrides));
   overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
   const Scene scene = loadScene(options.scene, overrides);
-  const RenderSettings render = options.render.settings();  // checked before anything is written
+  // Every setting is checked before anything is written.
+  const RenderSettings render =
+      options.render.settings(renderSettingsFromScene(scene.render, scene.file));
+  if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
+      (options.render.png || options.render.mp4))
+    throw InputError("--color-by plastic: " + scene.file +
+                     " runs the report's method, which has no plastic compression; allowed: "
+                     "white, density, speed (or --set solver=mpm)");
+  const VideoSettings video = options.render.videoSettings(scene.fps);
   prepareOutputDirectory(options.out);
   auto simulation = makeSimulation(scene);
 
   FrameSinks sinks;
   if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
-  if (options.png) sinks.push_back(std::make_unique<PngSink>(options.out, render));
+  if (options.render.png || options.render.mp4)
+    sinks.push_back(std::make_unique<RenderSink>(
+        render, options.render.png ? options.out : "",
+        options.render.mp4 ? options.out + "/" + scene.name + ".mp4" : "", video));
 
+  catchInterrupts();
   const auto start = std::chrono::steady_clock::now();
   const int frames = scene.frameCount();
   Progress progress(frames);
-  for (int frame = 0; frame <= frames; ++frame) {
+  int written = 0;
+  for (int frame = 0; frame <= frames && !interruptSignal(); ++frame, ++written) {
     simulation->advanceTo(std::min(scene.duration, frame / scene.fps));
     const Snapshot snapshot = simulation->snapshot(frame);
     for (auto& sink : sinks) sink->write(snapshot);
@@ -94,8 +110,14 @@ void run(const RunOptions& options) {
                             {"simulated_time", simulation->time()},
                             {"wall_time", wall},
                             {"particles", simulation->particleCount()},
-                            {"frames", frames + 1}};
+                            {"frames", written},
+                            {"fps", scene.fps}};
+  if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
+  if (const int sig = interruptSignal())
+    throw Interrupted(sig, "interrupted after " + std::to_string(written) + " of " +
+                               std::to_string(frames + 1) +
+                               " frames; what was written is complete");
 }
 
 }  // namespace
@@ -112,16 +134,17 @@ void addRunCommand(CLI::App& app) {
                   "Override a scene field by its dotted path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] (repeatable)");
   cmd->add_option("--quality", options->quality,
-                  "draft | figure | reference: time step and particles per cell from the "
-                  "measured speed/accuracy front (docs/study.md); --set overrides them");
+                  "draft | figure | reference: integrator, time step, particles per cell and "
+                  "(MPM reference) cell size from the measured speed/accuracy front "
+                  "(docs/study.md); --set overrides them");
   cmd->add_flag("!--no-ply", options->ply, "Do not write the per-frame PLY files");
-  cmd->add_flag("!--no-png", options->png, "Do not render the per-frame PNG images");
   options->render.addTo(*cmd);
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
-      "(the particles as shaded spheres over the grid) and run.json "
-      "(steps, simulated time, wall time, particle count, dimension).\n"
-      "Exit codes: 0 done, 2 bad input, 3 the simulation diverged.");
+      "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
+      "and run.json (steps, simulated time, wall time, particle count, dimension).\n"
+      "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
+      "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
   cmd->callback([options] { run(*options); });
 }
 

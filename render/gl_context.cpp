@@ -27,10 +27,17 @@ OffscreenContext::OffscreenContext() : state_(std::make_unique<State>()) {
                             0};
   state_->context = OSMesaCreateContextAttribs(attributes, nullptr);
   if (!state_->context) throw std::runtime_error("cannot create an OSMesa OpenGL 3.3 core context");
-  if (!OSMesaMakeCurrent(state_->context, state_->unused_buffer.data(), GL_UNSIGNED_BYTE, 1, 1)) {
+  try {
+    makeCurrent();
+  } catch (...) {
     OSMesaDestroyContext(state_->context);
-    throw std::runtime_error("cannot make the OSMesa context current");
+    throw;
   }
+}
+
+void OffscreenContext::makeCurrent() {
+  if (!OSMesaMakeCurrent(state_->context, state_->unused_buffer.data(), GL_UNSIGNED_BYTE, 1, 1))
+    throw std::runtime_error("cannot make the OSMesa context current");
 }
 
 OffscreenContext::~OffscreenContext() {

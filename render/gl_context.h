@@ -14,6 +14,9 @@ class OffscreenContext {
   OffscreenContext(const OffscreenContext&) = delete;
   OffscreenContext& operator=(const OffscreenContext&) = delete;
 
+  // Several renderers may live in one thread; each makes its own context current to draw.
+  void makeCurrent();
+
  private:
   struct State;
   std::unique_ptr<State> state_;

@@ -1,23 +1,60 @@
 #include "render/image.h"
 
-#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <png.h>
+
+#include <csetjmp>
+
 #define STB_IMAGE_IMPLEMENTATION
 #include <stb/stb_image.h>
-#include <stb/stb_image_write.h>
 
 #include "sim/errors.h"
 #include "sim/files.h"
 
 namespace snowsim {
 
+namespace {
+
+void appendToString(png_structp png, png_bytep data, png_size_t size) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), size);
+}
+void noFlush(png_structp) {}
+
+// libpng at zlib level 1 with the Up filter: 7 ms a 720p frame where stb_image_write takes
+// 80-110 ms, and a smaller file (25 KB against 48 KB; bench/png_bench). Frames are opaque, so RGB.
+bool encodePng(const Image& image, std::string& bytes) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    return false;
+  }
+  std::vector<png_byte> row(3 * static_cast<size_t>(image.width));
+  if (setjmp(png_jmpbuf(png))) {  // libpng reports errors by longjmp
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_set_write_fn(png, &bytes, appendToString, noFlush);
+  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_compression_level(png, 1);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_UP);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height; ++y) {
+    const std::uint8_t* rgba = image.pixel(0, y);
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) row[3 * x + c] = rgba[4 * x + c];
+    png_write_row(png, row.data());
+  }
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+}  // namespace
+
 void writePng(const std::string& path, const Image& image) {
   std::string bytes;
-  auto append = [](void* context, void* data, int size) {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), size);
-  };
-  if (!stbi_write_png_to_func(append, &bytes, image.width, image.height, 4, image.rgba.data(),
-                              image.width * 4))
-    throw InputError(path + ": cannot encode the PNG");
+  if (!encodePng(image, bytes)) throw InputError(path + ": cannot encode the PNG");
   writeFileAtomically(path, bytes);
 }
 

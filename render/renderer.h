@@ -1,8 +1,10 @@
 // Draws a Snapshot off-screen: the particles as shaded spheres over the simulation grid, as in
 // the report's figures. 2D scenes get an orthographic front view of the domain, 3D scenes a
-// perspective view from the front. 4x MSAA.
+// perspective view (by default from the front, above and to the right). 4x MSAA. Spheres a few
+// pixels wide are drawn as point sprites instead of ray-cast impostors (docs/rendering.md).
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 
@@ -11,17 +13,29 @@
 
 namespace snowsim {
 
-enum class ColorBy { White, Density, Speed };
+// Plastic: MPM's plastic volume ratio J_P (white at 1, red where compressed, blue where
+// stretched); the snapshot must carry plastic_j.
+enum class ColorBy { White, Density, Speed, Plastic };
 
-// Parses "white", "density", "speed"; throws InputError listing the allowed names.
-ColorBy parseColorBy(const std::string& name);
+// Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
+ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
+
+// A perspective camera for 3D scenes, in world coordinates (metres).
+struct Camera {
+  bool custom = false;  // false: the default view of the whole domain
+  std::array<double, 3> eye{}, target{}, up{0, 1, 0};
+  double fov_degrees = 35;  // vertical field of view
+};
 
 struct RenderSettings {
   int width = 1280;
   int height = 720;
   ColorBy color_by = ColorBy::White;
   bool show_grid = true;
-  double sphere_radius = 0;  // metres; 0: half the particle spacing
+  bool density_cells = false;  // 2D: shade cells by density, those at the critical density marked
+  double sphere_radius = 0;    // metres; 0: half the particle spacing
+  double lod_pixels = 5.0;     // spheres of a smaller projected radius become point sprites
+  Camera camera;
 };
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.

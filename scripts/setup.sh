@@ -11,7 +11,7 @@ packages=(
   # scene files and the command line
   nlohmann-json3-dev libcli11-dev
   # render/: off-screen OpenGL, maths, image and video files
-  libosmesa6-dev libglm-dev libstb-dev
+  libosmesa6-dev libglm-dev libstb-dev libpng-dev
   libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
   # tests and benchmarks (ffmpeg gives ffprobe for reading videos back)
   libgtest-dev libgmock-dev libbenchmark-dev ffmpeg

@@ -1,4 +1,3 @@
-#version 330 core
 // Grid lines, ground and walls, in world space.
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 color;

@@ -1,5 +1,5 @@
-#version 330 core
-// Sphere impostor: the quad point becomes a point on the sphere with its normal and depth.
+// Sphere impostor: the quad point becomes a point on the sphere with its normal and exact depth.
+// (Compiled after "#version" and lighting.glsl.)
 in vec2 quad;
 in vec3 view_center;
 in vec3 base_color;
@@ -17,11 +17,5 @@ void main() {
   vec3 surface = view_center + radius * normal;
   vec4 clip = projection * vec4(surface, 1.0);
   gl_FragDepth = 0.5 * (clip.z / clip.w) + 0.5;
-
-  vec3 l = normalize(light_direction);
-  float diffuse = max(dot(normal, l), 0.0);
-  vec3 halfway = normalize(l + vec3(0.0, 0.0, 1.0));
-  float specular = pow(max(dot(normal, halfway), 0.0), 32.0);
-  float ambient = 0.35 + 0.15 * normal.y;  // a soft sky term, brighter on top
-  fragment = vec4(base_color * (ambient + 0.6 * diffuse) + vec3(0.25 * specular), 1.0);
+  fragment = vec4(shadeSnow(base_color, normal, light_direction), 1.0);
 }

@@ -1,4 +1,4 @@
-#version 330 core
+// (Compiled after "#version".)
 // One camera-facing quad per particle; the fragment shader ray-casts the sphere inside it.
 layout(location = 0) in vec2 corner;  // (-1,-1) .. (1,1)
 layout(location = 1) in vec3 center;  // world space

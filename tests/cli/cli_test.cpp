@@ -1,12 +1,16 @@
 // The command line as a user meets it: exit codes, messages, and no half-written output.
 #include <gtest/gtest.h>
 
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -84,6 +88,86 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --color-by temperature",
                  "allowed: white, density, speed");
   expectRejected("run " + scene("snowball_drop") + " --width 0", "out of range");
+  expectRejected("run " + scene("snowball_drop") + " --width 201", "even width and height");
+  expectRejected("run " + scene("snowball_drop") + " --mp4-codec nonesuch", "--mp4-codec");
+  expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
+  expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
+}
+
+// What ffprobe reads of a video: codec, size, pixel format and the frames it decodes.
+struct Probe {
+  std::string codec, pix_fmt;
+  int width = 0, height = 0, frames = 0;
+};
+
+Probe probe(const fs::path& video) {
+  const std::string command =
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+      "stream=codec_name,width,height,pix_fmt,nb_read_frames -of json " +
+      video.string();
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string text;
+  std::array<char, 4096> buffer;
+  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) text.append(buffer.data(), n);
+  pclose(pipe);
+  const auto json = nlohmann::json::parse(text, nullptr, false);
+  Probe p;
+  if (json.is_discarded() || json["streams"].empty()) return p;
+  const auto& stream = json["streams"][0];
+  p.codec = stream.value("codec_name", "");
+  p.pix_fmt = stream.value("pix_fmt", "");
+  p.width = stream.value("width", 0);
+  p.height = stream.value("height", 0);
+  p.frames = std::stoi(stream.value("nb_read_frames", "0"));
+  return p;
+}
+
+TEST(Cli, RunEncodesItsFramesIntoAnMp4ThatFfprobeReads) {
+  const fs::path out = freshDir("video");
+  const Result r =
+      runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                 " --set time.duration=0.2 --no-ply --no-png --width 320 --height 240");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Probe video = probe(out / "snowball_drop.mp4");
+  EXPECT_EQ(video.codec, "h264");
+  EXPECT_EQ(video.pix_fmt, "yuv420p");
+  EXPECT_EQ(video.width, 320);
+  EXPECT_EQ(video.height, 240);
+  EXPECT_EQ(video.frames, 11);  // 0.2 s at 50 frames a second, and the first frame
+  EXPECT_FALSE(fs::exists(out / "snowball_drop.mp4.part"));
+}
+
+// SIGTERM in the middle of a long run: the video so far is finalised and plays, run.json says
+// how many frames it holds, the exit code is 128 + 15.
+TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
+  const fs::path out = freshDir("interrupted");
+  const std::string binary = SNOWSIM_BINARY, scene_file = scene("snowball_drop");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execl(binary.c_str(), binary.c_str(), "run", scene_file.c_str(), "-o", out.c_str(), "--set",
+          "time.duration=1000", "--no-ply", "--no-png", "--width", "160", "--height", "120",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Let it encode some frames first (x264 holds its first frames back, so the file stays small).
+  const fs::path part = out / "snowball_drop.mp4.part";
+  for (int i = 0; i < 200 && !fs::exists(part); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  kill(child, SIGTERM);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  EXPECT_FALSE(fs::exists(part));
+  const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["interrupted_by_signal"], SIGTERM);
+  const Probe video = probe(out / "snowball_drop.mp4");
+  EXPECT_EQ(video.width, 160);
+  EXPECT_GT(video.frames, 1);
+  EXPECT_EQ(video.frames, summary["frames"].get<int>());
 }
 
 TEST(Cli, RenderRedrawsSavedFrames) {

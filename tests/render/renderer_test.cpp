@@ -43,10 +43,18 @@ bool isBackground(const Image& image, int x, int y) {
   return std::abs(p[0] - 51) <= 2 && std::abs(p[1] - 56) <= 2 && std::abs(p[2] - 69) <= 2;
 }
 
+RenderSettings testSettings(ColorBy color_by = ColorBy::White) {
+  RenderSettings settings;
+  settings.width = kWidth;
+  settings.height = kHeight;
+  settings.color_by = color_by;
+  return settings;
+}
+
 // One OpenGL context per colouring for the whole test binary: creating one costs tens of ms.
 Renderer& sharedRenderer(ColorBy color_by = ColorBy::White) {
-  static Renderer white({kWidth, kHeight, ColorBy::White, true, 0});
-  static Renderer density({kWidth, kHeight, ColorBy::Density, true, 0});
+  static Renderer white(testSettings(ColorBy::White));
+  static Renderer density(testSettings(ColorBy::Density));
   return color_by == ColorBy::White ? white : density;
 }
 
@@ -110,8 +118,86 @@ TEST(Renderer, RenderingTwiceGivesIdenticalBytes) {
 }
 
 TEST(Renderer, BadSettingsAreInputErrors) {
-  EXPECT_THROW(validate({0, 720, ColorBy::White, true, 0}), InputError);
+  RenderSettings zero = testSettings();
+  zero.width = 0;
+  EXPECT_THROW(validate(zero), InputError);
+  RenderSettings fov = testSettings();
+  fov.camera.fov_degrees = 180;
+  EXPECT_THROW(validate(fov), InputError);
   EXPECT_THROW(parseColorBy("temperature"), InputError);
+}
+
+TEST(Renderer, PlasticColouringShowsCompressionAndStretch) {
+  Renderer renderer(testSettings(ColorBy::Plastic));
+  Snapshot s = emptyDomain(2);
+  s.grid.particle_spacing = 0.01;
+  addParticle(s, 0.025, 0.06, 0);
+  addParticle(s, 0.075, 0.06, 0);
+  s.plastic_j = {0.85f, 1.15f};
+  const Image image = renderer.render(s);
+  const auto [cx, cy] = pixelOf(0.025, 0.06);
+  const auto [sx, sy] = pixelOf(0.075, 0.06);
+  EXPECT_GT(image.pixel(cx, cy)[0], image.pixel(cx, cy)[2] + 40) << "compressed: red";
+  EXPECT_GT(image.pixel(sx, sy)[2], image.pixel(sx, sy)[0] + 40) << "stretched: blue";
+  s.plastic_j.clear();
+  EXPECT_THROW(renderer.render(s), InputError) << "the report's method has no J_P";
+}
+
+TEST(Renderer, DensityCellsMarkTheCriticalDensity) {
+  RenderSettings settings = testSettings();
+  settings.density_cells = true;
+  Renderer renderer(settings);
+  Snapshot s = emptyDomain(2);
+  s.grid.critical_density = 100;
+  s.grid.node_density.assign(11 * 13, 0.f);
+  s.grid.node_density[3 * 11 + 2] = 250;  // node (2, 3): packed
+  s.grid.node_density[3 * 11 + 7] = 40;   // node (7, 3): loose
+  const Image image = renderer.render(s);
+  // A quarter cell off each node, so no grid line is under the pixel.
+  const auto [px, py] = pixelOf(0.0225, 0.0325);
+  const auto [lx, ly] = pixelOf(0.0725, 0.0325);
+  const auto [ex, ey] = pixelOf(0.0525, 0.0325);
+  const auto *packed = image.pixel(px, py), *loose = image.pixel(lx, ly);
+  EXPECT_GT(packed[0], packed[2] + 80) << "at or above the critical density: amber";
+  EXPECT_GT(loose[2], loose[0] + 30) << "below it: blue";
+  EXPECT_FALSE(isBackground(image, lx, ly));
+  EXPECT_TRUE(isBackground(image, ex, ey)) << "an empty cell";
+}
+
+// Level of detail: the point sprite stands where the ray-cast sphere does, about as large.
+TEST(Renderer, PointSpritesMatchTheImpostors) {
+  Snapshot s = emptyDomain(2);
+  s.grid.particle_spacing = 0.01;
+  addParticle(s, 0.025, 0.09, 0);
+  RenderSettings impostor = testSettings(), sprite = testSettings();
+  impostor.lod_pixels = 0;
+  sprite.lod_pixels = 1000;
+  impostor.show_grid = sprite.show_grid = false;  // sprite frames are single-sampled: sharper lines
+  const Image a = Renderer(impostor).render(s), b = Renderer(sprite).render(s);
+  auto bright = [](const Image& image) {
+    int n = 0;
+    for (int i = 0; i < kWidth * kHeight; ++i) n += image.rgba[4 * i + 2] > 150;
+    return n;
+  };
+  const auto [px, py] = pixelOf(0.025, 0.09);
+  EXPECT_GT(b.pixel(px, py)[2], 150);
+  EXPECT_NEAR(bright(b), bright(a), 0.2 * bright(a));
+}
+
+TEST(Renderer, SceneCameraLooksWhereItIsTold) {
+  Snapshot s = emptyDomain(3);
+  s.grid.particle_spacing = 0.01;
+  addParticle(s, 0.03, 0.04, 0.05);
+  RenderSettings settings = testSettings();
+  settings.camera.custom = true;
+  settings.camera.eye = {0.03, 0.04, 0.4};
+  settings.camera.target = {0.03, 0.04, 0.05};
+  const Image at = Renderer(settings).render(s);
+  settings.camera.target = {0.2, 0.04, 0.05};
+  const Image away = Renderer(settings).render(s);
+  const auto* centre = at.pixel(kWidth / 2, kHeight / 2);
+  EXPECT_GT(centre[2], 150) << "the sphere at the image centre";
+  EXPECT_LT(away.pixel(kWidth / 2, kHeight / 2)[2], 150) << "looking past it";
 }
 
 TEST(Image, PngRoundTripsAndWritesAtomically) {

@@ -1,0 +1,22 @@
+// Ctrl-C and SIGTERM during a long run: the frame loop stops at the next frame, the sinks finish
+// (the MP4 gets its trailer and still plays) and snowsim exits with 128 + the signal number.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace snowsim {
+
+// Installs the SIGINT/SIGTERM handlers, which only record the signal.
+void catchInterrupts();
+
+// The signal received since catchInterrupts(), or 0.
+int interruptSignal();
+
+// Thrown after the sinks have finished; main() turns it into exit code 128 + signal.
+struct Interrupted : std::runtime_error {
+  int signal;
+  Interrupted(int sig, const std::string& what) : std::runtime_error(what), signal(sig) {}
+};
+
+}  // namespace snowsim

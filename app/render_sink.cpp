@@ -1,0 +1,93 @@
+#include "app/render_sink.h"
+
+#include <cstdio>
+
+#include "sim/errors.h"
+
+namespace snowsim {
+
+void RenderOptions::addTo(CLI::App& command) {
+  command_ = &command;
+  command.add_option("--width", width, "Image width in pixels (16 to 8192; default 1280)");
+  command.add_option("--height", height, "Image height in pixels (16 to 8192; default 720)");
+  command.add_option("--color-by", color_by,
+                     "Particle colour: white, density, speed or plastic (MPM's J_P)");
+  command.add_flag("--no-grid", no_grid, "Do not draw the simulation grid behind the particles");
+  command.add_flag("--density-cells", density_cells,
+                   "2D: shade the cells by density, amber at or above the critical density");
+  command.add_option("--sphere-radius", sphere_radius,
+                     "Sphere radius in metres (default: half the particle spacing)");
+  command.add_option("--camera-eye", camera_eye, "3D camera position x,y,z (metres)")
+      ->delimiter(',')
+      ->expected(3);
+  command.add_option("--camera-target", camera_target, "3D camera target x,y,z (metres)")
+      ->delimiter(',')
+      ->expected(3);
+  command.add_option("--camera-up", camera_up, "3D camera up direction x,y,z (default 0,1,0)")
+      ->delimiter(',')
+      ->expected(3);
+  command.add_option("--fov", fov, "3D camera vertical field of view, degrees (default 35)");
+  command.add_flag("!--no-png", png, "Do not write the per-frame PNG images");
+  command.add_flag("!--no-mp4", mp4, "Do not encode the frames into an MP4 video");
+  command.add_option("--mp4-fps", video_fps,
+                     "Video frame rate (default: the scene's frames per second, real time)");
+  command.add_option("--mp4-crf", video.crf, "Video quality, 0 (lossless) to 51 (worst)")
+      ->capture_default_str();
+  command
+      .add_option("--mp4-codec", video.codec,
+                  "auto (libx264 if present, else mpeg4) or a libavcodec encoder name")
+      ->capture_default_str();
+}
+
+bool RenderOptions::given(const char* name) const {
+  return command_ && command_->count(name) > 0;
+}
+
+RenderSettings RenderOptions::settings(RenderSettings s) const {
+  auto point = [](const std::vector<double>& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
+  if (given("--width")) s.width = width;
+  if (given("--height")) s.height = height;
+  if (given("--color-by")) s.color_by = parseColorBy(color_by);
+  if (no_grid) s.show_grid = false;
+  if (density_cells) s.density_cells = true;
+  if (given("--sphere-radius")) s.sphere_radius = sphere_radius;
+  if (given("--camera-eye") != given("--camera-target") && !s.camera.custom)
+    throw InputError(
+        "--camera-eye and --camera-target: give both (or a render.camera in the scene)");
+  if (given("--camera-eye")) s.camera.eye = point(camera_eye), s.camera.custom = true;
+  if (given("--camera-target")) s.camera.target = point(camera_target), s.camera.custom = true;
+  if (given("--camera-up")) s.camera.up = point(camera_up);
+  if (given("--fov")) s.camera.fov_degrees = fov;
+  validate(s);
+  return s;
+}
+
+VideoSettings RenderOptions::videoSettings(double scene_fps) const {
+  VideoSettings v = video;
+  v.fps = video_fps != 0 ? video_fps : scene_fps;
+  if (mp4) validate(v, width, height);
+  return v;
+}
+
+RenderSink::RenderSink(const RenderSettings& settings, std::string png_dir,
+                       const std::string& mp4_path, const VideoSettings& video)
+    : png_dir_(std::move(png_dir)), renderer_(settings) {
+  if (!mp4_path.empty())
+    video_ = std::make_unique<VideoEncoder>(mp4_path, settings.width, settings.height, video);
+}
+
+void RenderSink::write(const Snapshot& snapshot) {
+  const Image image = renderer_.render(snapshot);
+  if (!png_dir_.empty()) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/frame_%05d.png", snapshot.frame);
+    writePng(png_dir_ + name, image);
+  }
+  if (video_) video_->addFrame(image);
+}
+
+void RenderSink::finish() {
+  if (video_) video_->finish();
+}
+
+}  // namespace snowsim

@@ -1,0 +1,58 @@
+// Rendering frames to images and a video, shared by `snowsim run` and `snowsim render`: each
+// snapshot is rendered once and handed to the PNG sequence and the MP4 encoder.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "app/frame_sink.h"
+#include "render/renderer.h"
+#include "render/video_encoder.h"
+
+namespace snowsim {
+
+// The image and video options of the command line. Those given override the scene's `render`
+// object (render/scene_render.h), which overrides the defaults.
+struct RenderOptions {
+  int width = 1280;
+  int height = 720;
+  std::string color_by = "white";
+  bool no_grid = false;
+  bool density_cells = false;
+  double sphere_radius = 0;
+  std::vector<double> camera_eye, camera_target, camera_up;
+  double fov = 35;
+  bool png = true;
+  bool mp4 = true;
+  VideoSettings video;
+  double video_fps = 0;  // 0: the scene's frame rate
+
+  void addTo(CLI::App& command);
+  // The scene's settings with the options given on the command line applied; throws InputError
+  // for a bad value.
+  RenderSettings settings(RenderSettings scene) const;
+  // The video settings for frames simulated at scene_fps; checked (InputError) when MP4 is on.
+  VideoSettings videoSettings(double scene_fps) const;
+
+ private:
+  bool given(const char* name) const;
+  CLI::App* command_ = nullptr;
+};
+
+class RenderSink final : public FrameSink {
+ public:
+  // png_dir empty: no PNG sequence; mp4_path empty: no video.
+  RenderSink(const RenderSettings& settings, std::string png_dir, const std::string& mp4_path,
+             const VideoSettings& video);
+  void write(const Snapshot& snapshot) override;
+  void finish() override;
+
+ private:
+  std::string png_dir_;
+  Renderer renderer_;
+  std::unique_ptr<VideoEncoder> video_;
+};
+
+}  // namespace snowsim

@@ -1,0 +1,22 @@
+// Level of detail for spheres a few pixels wide: one point sprite per particle, sized to the
+// sphere's projected diameter, at the depth of its front point (no per-pixel ray cast).
+// (Compiled after "#version".)
+layout(location = 1) in vec3 center;  // world space
+layout(location = 2) in vec3 color;
+
+uniform mat4 view;
+uniform mat4 projection;
+uniform float radius;
+uniform float viewport_height;
+
+out vec3 base_color;
+
+void main() {
+  vec4 view_center = view * vec4(center, 1.0);
+  // The front of the sphere, as the impostor's nearest depth: in front of the grid behind it.
+  gl_Position = projection * (view_center + vec4(0.0, 0.0, radius, 0.0));
+  base_color = color;
+  // Projected radius in pixels: projection[1][1] maps view-space height to clip space; a
+  // perspective divides by the distance (w), an orthographic projection has w = 1.
+  gl_PointSize = max(1.0, radius * projection[1][1] * viewport_height / gl_Position.w);
+}

@@ -1,7 +1,9 @@
 // snowsim study: runs scene families over solver, time step, cell size and particles per cell,
 // and writes one CSV row per run: wall time, steps, particles, error by each metric of
 // sim/metrics.h against a reference run, and how the run ended (docs/study.md).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -26,41 +28,87 @@ struct StudyOptions {
 
 // One point of the sweep. refine halves the cell size and doubles the cells (same domain).
 struct Config {
-  std::string scene;  // file stem in the scenes directory
-  std::string solver = "density_hybrid";
+  std::string scene;                      // file stem in the scenes directory
+  std::string solver = "density_hybrid";  // a label of solverOverrides()
   double dt = 0.001;
   int refine = 1;
   int particles_per_cell = 9;
   double duration = 0.5;
+  double E0 = 0;  // MPM Young's modulus (Pa); 0: the scene's
 };
 
 struct Preset {
   std::vector<std::string> scenes;
+  std::vector<std::string> solvers;
   std::vector<double> dts;
   std::vector<int> refines;
-  std::vector<int> particles_per_cell;
+  std::vector<int> particles_per_cell;  // 2D counts; a 3D scene uses the nearest cube
   double duration;
+  std::vector<double> E0s = {0};
+  bool errors = true;  // false: the stability map records only how each run ended
 };
 
-// quick: a handful of runs for CI (about a minute on 2 cores); full: the study in docs/study.md.
-// Both include dt = 0.01, the report's Fig. 8 failure, and dt = 0.05, far past any limit.
-Preset presetNamed(const std::string& name) {
-  if (name == "tiny") return {{"snowball_drop"}, {0.05, 0.004, 0.002}, {1}, {4}, 0.1};
-  if (name == "quick")
-    return {{"snowball_drop", "column_thrown_ball"}, {0.05, 0.01, 0.004, 0.002}, {1}, {9}, 0.3};
-  if (name == "full")
-    return {{"snowball_drop", "column_thrown_ball"},
-            {0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005},
-            {1, 2, 4},
-            {4, 9, 16, 25},
-            1.0};
-  throw InputError("--preset: unknown preset '" + name + "'; allowed: tiny, quick, full");
+// The solvers and integrators the study compares. MPM runs at the fixed dt of the sweep (no
+// adaptive step), so the study sees where each integrator breaks.
+std::vector<std::string> solverOverrides(const std::string& label) {
+  if (label == "density_hybrid") return {"solver=density_hybrid"};
+  const std::vector<std::string> mpm = {"solver=mpm", "mpm.adaptive_dt=false"};
+  auto with = [&](std::vector<std::string> extra) {
+    extra.insert(extra.begin(), mpm.begin(), mpm.end());
+    return extra;
+  };
+  if (label == "mpm_pic_flip") return with({"mpm.transfer=pic_flip"});
+  if (label == "mpm_apic") return with({"mpm.transfer=apic"});
+  if (label == "mpm_mls") return with({"mpm.transfer=mls"});
+  if (label == "mpm_apic_semi") return with({"mpm.transfer=apic", "mpm.integrator=semi_implicit"});
+  if (label == "mpm_mls_semi") return with({"mpm.transfer=mls", "mpm.integrator=semi_implicit"});
+  // The reference: APIC with the adaptive CFL step, capped by the given dt.
+  if (label == "reference_mpm_apic") return {"solver=mpm", "mpm.transfer=apic"};
+  throw InputError("study: unknown solver label '" + label + "'");
 }
 
-// The reference: the finest point of the sweep at half its cell size and a quarter of its dt.
+const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip",  "mpm_apic",
+                                              "mpm_mls",        "mpm_apic_semi", "mpm_mls_semi"};
+
+// tiny: three runs for the CI test. quick: a few minutes on 2 cores. full: the study of
+// docs/study.md. stability: the stability map (time step against Young's modulus). Each includes
+// steps beyond the explicit limit and dt = 0.01, the report's Fig. 8 failure.
+Preset presetNamed(const std::string& name) {
+  if (name == "tiny")
+    return {{"snowball_drop"}, {"density_hybrid", "mpm_mls"}, {0.004, 2e-4}, {1}, {4}, 0.1};
+  if (name == "quick")
+    return {{"snowball_drop", "column_thrown_ball"},
+            {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
+            {0.01, 0.002, 2e-4},
+            {1},
+            {9},
+            0.3};
+  if (name == "full")
+    return {{"snowball_drop", "column_thrown_ball", "study_smash_3d"},
+            kAllSolvers,
+            {0.05, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4},
+            {1, 2},
+            {4, 9, 16},
+            0.5};
+  if (name == "stability")
+    return {{"column_thrown_ball"},
+            {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
+            {0.02, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4, 5e-5},
+            {1},
+            {9},
+            0.3,
+            {1.4e4, 1.4e5, 1.4e6},
+            false};
+  throw InputError("--preset: unknown preset '" + name +
+                   "'; allowed: tiny, quick, full, stability");
+}
+
+// The reference: the most accurate solver (APIC MPM, its step at the CFL limit and at most a
+// quarter of the sweep's finest dt) at half the finest cell size and the most particles per cell.
 Config referenceFor(const std::string& scene, const Preset& p) {
   Config c;
   c.scene = scene;
+  c.solver = "reference_mpm_apic";
   c.dt = *std::min_element(p.dts.begin(), p.dts.end()) / 4;
   c.refine = 2 * *std::max_element(p.refines.begin(), p.refines.end());
   c.particles_per_cell =
@@ -95,7 +143,14 @@ std::string format(double v) {
 std::string keyOf(const std::string& build, const Config& c) {
   return build + "," + c.scene + "," + c.solver + "," + format(c.dt) + "," +
          std::to_string(c.refine) + "," + std::to_string(c.particles_per_cell) + "," +
-         format(c.duration);
+         format(c.duration) + "," + format(c.E0);
+}
+
+// Particles per cell in the scene's dimension: a 3D scene takes the cube nearest the 2D count.
+int particlesPerCell(int count_2d, int dimension) {
+  if (dimension == 2) return count_2d;
+  const int per_axis = std::max(1, static_cast<int>(std::lround(std::sqrt(count_2d))));
+  return per_axis * per_axis * per_axis;
 }
 
 struct Outcome {
@@ -111,10 +166,17 @@ struct Outcome {
 Outcome simulate(const StudyOptions& options, const Config& c) {
   const std::string path = options.scenes + "/" + c.scene + ".json";
   Scene base = loadScene(path);
-  std::vector<std::string> overrides = {
-      "solver=" + c.solver, "time.dt=" + format(c.dt), "time.duration=" + format(c.duration),
-      "particles_per_cell=" + std::to_string(c.particles_per_cell),
-      "grid.cell_size=" + format(base.cell_size / c.refine)};
+  std::vector<std::string> overrides = solverOverrides(c.solver);
+  // Frames no closer than dt: the driver never steps past a frame, so a step larger than the
+  // frame interval would silently shrink to it.
+  const double fps = std::min(base.fps, 1 / c.dt);
+  for (const std::string& o :
+       {"time.dt=" + format(c.dt), "time.duration=" + format(c.duration), "time.fps=" + format(fps),
+        "particles_per_cell=" +
+            std::to_string(particlesPerCell(c.particles_per_cell, base.authored_dimension)),
+        "grid.cell_size=" + format(base.cell_size / c.refine)})
+    overrides.push_back(o);
+  if (c.E0 > 0) overrides.push_back("material.E0=" + format(c.E0));
   std::string cells = "grid.cells=[";
   for (int k = 0; k < base.authored_dimension; ++k)
     cells += (k ? "," : "") + std::to_string(base.cells[k] * c.refine);
@@ -148,6 +210,21 @@ Outcome simulate(const StudyOptions& options, const Config& c) {
   return out;
 }
 
+// The frames of both runs at the times they share (a run with a step longer than the scene's
+// frame interval records fewer frames; see simulate()).
+std::pair<Frames, Frames> atCommonTimes(const Frames& run, const Frames& reference) {
+  std::pair<Frames, Frames> common;
+  size_t r = 0;
+  for (const Snapshot& s : run) {
+    while (r < reference.size() && reference[r].time < s.time - 1e-9) ++r;
+    if (r < reference.size() && std::abs(reference[r].time - s.time) <= 1e-9) {
+      common.first.push_back(s);
+      common.second.push_back(reference[r]);
+    }
+  }
+  return common;
+}
+
 // The tower's left edge in the thrown-ball scene: the body named "column".
 double towerLeftEdge(const StudyOptions& options, const std::string& scene_name) {
   const Scene scene = loadScene(options.scenes + "/" + scene_name + ".json");
@@ -157,8 +234,8 @@ double towerLeftEdge(const StudyOptions& options, const std::string& scene_name)
 }
 
 const char* kHeader =
-    "build,scene,solver,dt,refine,particles_per_cell,duration,cell_size,status,wall_s,steps,"
-    "particles,err_density,err_height_m,err_com_m,free_fall_err_m,claim_ball_outside,message";
+    "build,scene,solver,dt,refine,particles_per_cell,duration,E0,cell_size,status,wall_s,steps,"
+    "particles,err_density,err_height_m,err_com_m,free_fall_err_m,ball_past_tower_m,message";
 
 std::set<std::string> measuredKeys(const std::string& csv) {
   std::set<std::string> keys;
@@ -166,9 +243,9 @@ std::set<std::string> measuredKeys(const std::string& csv) {
   std::string line;
   std::getline(in, line);  // header
   while (std::getline(in, line)) {
-    // The key is the first seven fields.
+    // The key is the first eight fields.
     size_t pos = 0;
-    for (int field = 0; field < 7 && pos != std::string::npos; ++field)
+    for (int field = 0; field < 8 && pos != std::string::npos; ++field)
       pos = line.find(',', pos + (field ? 1 : 0));
     if (pos != std::string::npos) keys.insert(line.substr(0, pos));
   }
@@ -195,25 +272,31 @@ void study(const StudyOptions& options) {
   int measured = 0, skipped = 0;
   for (const std::string& scene : preset.scenes) {
     std::vector<Config> todo;
-    for (double dt : preset.dts)
-      for (int refine : preset.refines)
-        for (int ppc : preset.particles_per_cell) {
-          Config c{scene, "density_hybrid", dt, refine, ppc, preset.duration};
-          if (done.count(keyOf(build, c))) {
-            ++skipped;
-            continue;
-          }
-          todo.push_back(c);
-        }
+    for (const std::string& solver : preset.solvers)
+      for (double E0 : preset.E0s)
+        for (double dt : preset.dts)
+          for (int refine : preset.refines)
+            for (int ppc : preset.particles_per_cell) {
+              const Config c{scene, solver, dt, refine, ppc, preset.duration, E0};
+              if (done.count(keyOf(build, c))) {
+                ++skipped;
+                continue;
+              }
+              todo.push_back(c);
+            }
     if (todo.empty()) continue;
 
-    const Config ref_config = referenceFor(scene, preset);
-    std::fprintf(stderr, "study: %s reference (dt %s, cell/%d, %d per cell)\n", scene.c_str(),
-                 format(ref_config.dt).c_str(), ref_config.refine, ref_config.particles_per_cell);
-    const Outcome reference = simulate(options, ref_config);
-    if (reference.status != "finished")
-      throw SimulationError("study: the reference run of " + scene + " " + reference.status + ": " +
-                            reference.message);
+    Outcome reference;
+    if (preset.errors) {
+      const Config ref_config = referenceFor(scene, preset);
+      std::fprintf(stderr, "study: %s reference (%s, dt <= %s, cell/%d, %d per cell)\n",
+                   scene.c_str(), ref_config.solver.c_str(), format(ref_config.dt).c_str(),
+                   ref_config.refine, ref_config.particles_per_cell);
+      reference = simulate(options, ref_config);
+      if (reference.status != "finished")
+        throw SimulationError("study: the reference run of " + scene + " " + reference.status +
+                              ": " + reference.message);
+    }
     const Scene base = loadScene(options.scenes + "/" + scene + ".json");
     const Vec3 extent = base.extent();
     const FieldGrid field{base.dimension, {extent[0], extent[1], extent[2]}, 64};
@@ -222,26 +305,30 @@ void study(const StudyOptions& options) {
     for (const Config& c : todo) {
       const Outcome run = simulate(options, c);
       std::string errors = ",,,,";
-      std::string claim = "";
+      std::string past_tower = "";
+      std::string status = run.status;
       const bool usable = run.status == "finished" || run.status == "escaped";
       if (tower > 0 && usable) {
-        claim = thrownBallStaysOutside(run.frames, tower) ? "pass" : "fail";
+        const double past = ballPastTower(run.frames, tower);
+        past_tower = format(past);
+        if (past > 0 && status == "finished") status = "tunnelled";  // through the tower
       }
-      std::string status = run.status;
-      if (claim == "fail" && status == "finished") status = "tunnelled";
-      if (usable) {
-        errors = format(densityFieldError(run.frames, reference.frames, field)) + "," +
-                 format(heightProfileError(run.frames, reference.frames, field)) + "," +
-                 format(centreOfMassPathError(run.frames, reference.frames)) + "," +
-                 (tower > 0 ? "" : format(freeFallError(run.frames, {0, -9.81, 0}, 0.08))) + ",";
+      if (usable && preset.errors) {
+        const bool falls_freely = tower < 0 && base.dimension == 2;
+        const auto [frames, ref] = atCommonTimes(run.frames, reference.frames);
+        errors = format(densityFieldError(frames, ref, field)) + "," +
+                 format(heightProfileError(frames, ref, field)) + "," +
+                 format(centreOfMassPathError(frames, ref)) + "," +
+                 (falls_freely ? format(freeFallError(run.frames, {0, -9.81, 0}, 0.08)) : "") + ",";
       }
       csv << keyOf(build, c) << "," << format(run.cell_size) << "," << status << ","
-          << format(run.wall) << "," << run.steps << "," << run.particles << "," << errors << claim
-          << "," << csvField(run.message) << "\n";
+          << format(run.wall) << "," << run.steps << "," << run.particles << "," << errors
+          << past_tower << "," << csvField(run.message) << "\n";
       csv.flush();
       ++measured;
-      std::fprintf(stderr, "study: %s dt %s cell/%d ppc %d: %s, %.2f s\n", scene.c_str(),
-                   format(c.dt).c_str(), c.refine, c.particles_per_cell, status.c_str(), run.wall);
+      std::fprintf(stderr, "study: %s %s dt %s E0 %s cell/%d ppc %d: %s, %.2f s\n", scene.c_str(),
+                   c.solver.c_str(), format(c.dt).c_str(), format(c.E0).c_str(), c.refine,
+                   c.particles_per_cell, status.c_str(), run.wall);
     }
   }
   std::printf("study: %d runs measured, %d already measured for build %s; results in %s\n",
@@ -254,7 +341,8 @@ void addStudyCommand(CLI::App& app) {
   auto options = std::make_shared<StudyOptions>();
   CLI::App* cmd = app.add_subcommand(
       "study", "Measure speed against accuracy over solvers, time steps and resolutions");
-  cmd->add_option("--preset", options->preset, "tiny | quick | full")->capture_default_str();
+  cmd->add_option("--preset", options->preset, "tiny | quick | full | stability")
+      ->capture_default_str();
   cmd->add_flag_callback(
       "--quick", [options] { options->preset = "quick"; },
       "Same as --preset quick: a few minutes on 2 cores, for CI");
@@ -266,10 +354,11 @@ void addStudyCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->footer(
       "Each row: the configuration, wall time, steps, particles, errors against a reference run "
-      "(density field, height profile, centre-of-mass path), the free-fall error, the report's "
-      "claim (thrown ball stays outside the tower) and how the run ended: finished, diverged "
-      "(stopped by the divergence check), nan, escaped (left the domain) or tunnelled. Failed "
-      "runs leave their error columns empty. Charts: scripts/charts.sh.");
+      "(density field, height profile, centre-of-mass path), the free-fall error, how far the "
+      "thrown ball's centre ends past the tower's far face, and how the run ended: finished, "
+      "diverged (stopped by the divergence check), nan, escaped (left the domain) or tunnelled "
+      "(the ball through the tower). Failed runs leave their error columns empty. Charts: "
+      "scripts/charts.sh.");
   cmd->callback([options] { study(*options); });
 }
 

@@ -1,86 +1,133 @@
 #!/bin/sh
-# Regenerates every chart of docs/study.md from the study's CSV (snowsim study -o CSV).
-# Usage: scripts/charts.sh [results.csv] [output dir]
+# Regenerates the charts of docs/study.md from the study's CSVs (snowsim study -o CSV).
+# Usage: scripts/charts.sh [results.csv] [stability.csv] [output dir]
+# A chart whose rows are missing from the CSV is left as it is (and said so).
 set -eu
 csv=${1:-docs/study/results.csv}
-out=${2:-docs/charts}
+stability=${2:-docs/study/stability.csv}
+out=${3:-docs/charts}
 [ -r "$csv" ] || { echo "charts: cannot read $csv (run: snowsim study -o $csv)" >&2; exit 2; }
 mkdir -p "$out"
+out=$(cd "$out" && pwd)
+[ -r "$stability" ] && stability=$(cd "$(dirname "$stability")" && pwd)/$(basename "$stability")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# Columns: 1 build 2 scene 3 solver 4 dt 5 refine 6 ppc 7 duration 8 cell_size 9 status
-# 10 wall_s 11 steps 12 particles 13 err_density 14 err_height_m 15 err_com_m 16 free_fall_err_m
-# Only the latest build's rows are drawn.
-build=$(tail -n 1 "$csv" | cut -d, -f1)
-awk -F, -v b="$build" 'NR > 1 && $1 == b' "$csv" > "$work/rows"
-for scene in snowball_drop column_thrown_ball; do
-  awk -F, -v s=$scene '$2 == s && $13 != "" {print $10, $13, $15}' "$work/rows" > "$work/$scene.cost"
-  # Pareto front: sorted by wall time, keep each run that beats every faster one.
-  sort -g "$work/$scene.cost" | awk 'NR == 1 || $2 < best {best = $2; print}' > "$work/$scene.front"
-  awk -F, -v s=$scene '$2 == s && $5 == 1 && $6 == 9 && $13 != "" {print $4, $13, $15, $16}' \
-    "$work/rows" | sort -g > "$work/$scene.dt"
-  awk -F, -v s=$scene '$2 == s && $4 == 0.0005 && $6 == 9 && $13 != "" {print $8, $13, $15}' \
-    "$work/rows" | sort -g > "$work/$scene.h"
-  awk -F, -v s=$scene '$2 == s && $4 == 0.001 {print $12, $10}' "$work/rows" > "$work/$scene.n"
-  awk -F, -v s=$scene '$2 == s && $4 == 0.001 && $5 == 1 && $6 == 9 {print $10}' "$work/rows" \
-    > "$work/$scene.table1"
+# Columns: 1 build 2 scene 3 solver 4 dt 5 refine 6 ppc 7 duration 8 E0 9 cell_size 10 status
+# 11 wall_s 12 steps 13 particles 14 err_density 15 err_height_m 16 err_com_m 17 free_fall_err_m
+# 18 ball_past_tower_m 19 message. Only the latest build's rows are drawn.
+latest() { awk -F, -v b="$(tail -n 1 "$1" | cut -d, -f1)" 'NR > 1 && $1 == b' "$1"; }
+latest "$csv" > "$work/rows"
+solvers="density_hybrid mpm_pic_flip mpm_apic mpm_mls mpm_apic_semi mpm_mls_semi"
+for s in $solvers; do
+  # error against wall time, every scene of the 2D report
+  awk -F, -v s=$s '$3 == s && $14 != "" && $2 != "study_smash_3d" {print $11, $14}' \
+    "$work/rows" > "$work/$s.cost"
+  # convergence in dt: the snowball drop at the base resolution
+  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $5 == 1 && $16 != "" {print $4, $16}' \
+    "$work/rows" | sort -g > "$work/$s.dt"
+  # convergence in the cell size: the smallest dt of the sweep
+  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $14 != "" {print $4, $9, $14}' \
+    "$work/rows" | sort -g | awk 'NR == 1 {d = $1} $1 == d {print $2, $3}' | sort -g \
+    > "$work/$s.h"
+  # cost against particle count
+  awk -F, -v s=$s '$3 == s && $10 == "finished" {print $13, $11 / $12 * 1000}' "$work/rows" \
+    > "$work/$s.n"
 done
+awk '{print}' "$work"/*.cost | sort -g | awk 'NR == 1 || $2 < best {best = $2; print}' \
+  > "$work/front"
+awk -F, '$3 == "density_hybrid" && $2 == "snowball_drop" && $4 == 0.001 && $5 == 1 {print $11 / $7}' \
+  "$work/rows" | head -n 1 > "$work/table1.drop"
+awk -F, '$3 == "density_hybrid" && $2 == "column_thrown_ball" && $4 == 0.001 && $5 == 1 {print $11 / $7}' \
+  "$work/rows" | head -n 1 > "$work/table1.ball"
+
+plots=""
+series() {  # series EXT STYLE: a gnuplot plot list of the solvers that have rows
+  list=""
+  for s in $solvers; do
+    [ -s "$work/$s.$1" ] || continue
+    title=$s
+    list="$list${list:+, }\"$s.$1\" u 1:2 $2 t \"$title\""
+  done
+  echo "$list"
+}
 
 cd "$work"
-gnuplot <<GP
-set terminal pngcairo size 720,480 font ",10"
-set key top right
-set grid
+{
+  echo 'set terminal pngcairo size 760,500 font ",10" noenhanced'
+  echo 'set grid; set key outside right'
+  if [ -s front ]; then
+    echo "set output '$out/error_vs_walltime.png'"
+    echo 'set title "Error against wall time, 2D report scenes (line: Pareto front)"'
+    echo 'set logscale xy; set xlabel "wall time (s)"; set ylabel "density-field error vs reference"'
+    echo "plot $(series cost 'w p pt 7'), 'front' u 1:2 w steps lc rgb 'black' t 'Pareto front'"
+    plots="$plots error_vs_walltime"
+  fi
+  if [ -n "$(series dt 'w lp')" ]; then
+    echo "set output '$out/error_vs_dt.png'"
+    echo 'set title "Convergence in the time step (snowball drop, base grid)"'
+    echo 'set logscale xy; set xlabel "dt (s)"; set ylabel "centre-of-mass path error (m)"'
+    echo "plot $(series dt 'w lp pt 7'), x * 0.5 dt 2 lc rgb 'gray' t 'slope 1'"
+    plots="$plots error_vs_dt"
+  fi
+  if [ -n "$(series h 'w lp')" ]; then
+    echo "set output '$out/error_vs_cellsize.png'"
+    echo 'set title "Error against cell size (snowball drop, smallest dt of the sweep)"'
+    echo 'set logscale xy; set xlabel "cell size (m)"; set ylabel "density-field error"'
+    echo "plot $(series h 'w lp pt 7')"
+    plots="$plots error_vs_cellsize"
+  fi
+  if [ -n "$(series n 'w p')" ]; then
+    echo "set output '$out/walltime_vs_particles.png'"
+    echo 'set title "Cost per step against particle count (finished runs)"'
+    echo 'unset logscale; set logscale xy; set xlabel "particles"; set ylabel "ms per step"'
+    echo 'f(x) = a * x; a = 1e-3; set fit quiet logfile "/dev/null"'
+    echo "fit f(x) \"< cat *.n\" u 1:2 via a"
+    echo "plot $(series n 'w p pt 7'), f(x) lc rgb 'black' t sprintf('linear fit: %.2g ms per particle-step', a)"
+    plots="$plots walltime_vs_particles"
+  fi
+  if [ -s table1.drop ] && [ -s table1.ball ]; then
+    echo "set output '$out/table1.png'"
+    echo 'set title "Report Table 1 (i3-2100) beside snowsim: seconds per simulated second, dt 0.001"'
+    echo 'unset logscale; set style data histograms; set style fill solid 0.8; set boxwidth 0.8'
+    echo 'set logscale y; set ylabel "wall time per simulated second (s)"; set xlabel ""; set key top right'
+    echo "\$table << EOD"
+    echo "\"snowball drop\" 45.3 $(cat table1.drop)"
+    echo "\"thrown ball\" 138 $(cat table1.ball)"
+    echo "EOD"
+    echo "plot \$table u 2:xtic(1) t 'report', '' u 3 t 'snowsim'"
+    plots="$plots table1"
+  fi
+} > charts.gp
 
-set output "$OLDPWD/$out/error_vs_walltime.png"
-set key bottom left opaque box
-set title "Error against wall time (density field vs reference; line: Pareto front)"
-set logscale xy
-set xlabel "wall time (s)"; set ylabel "density-field error (half L1 of mass fractions)"
-plot "snowball_drop.cost" u 1:2 w p pt 7 lc rgb "#1f77b4" t "density\\\_hybrid: snowball drop", \
-     "snowball_drop.front" u 1:2 w steps lc rgb "#1f77b4" notitle, \
-     "column_thrown_ball.cost" u 1:2 w p pt 5 lc rgb "#d62728" t "density\\\_hybrid: thrown ball", \
-     "column_thrown_ball.front" u 1:2 w steps lc rgb "#d62728" notitle
+# The stability map: dt against Young's modulus, one panel per solver, each run marked by how
+# it ended; the explicit CFL bound dt = 0.5 h / c, c = sqrt((lambda + 2 mu) / rho) for
+# nu = 0.2, rho = 400 kg/m^2, h = 0.01 m (method-notes.md), drawn over it.
+if [ -r "$stability" ]; then
+  latest "$stability" > stab
+  panels=$(cut -d, -f3 stab | sort -u)
+  n=$(echo "$panels" | wc -l)
+  {
+    echo "set output '$out/stability_map.png'"
+    echo "set terminal pngcairo size $((330 * n)),420 font ',10' noenhanced"
+    echo "set multiplot layout 1,$n title 'Stability map: column_thrown_ball, 0.3 s (x: diverged, square: tunnelled, dot: finished)'"
+    echo 'set logscale xy; set xlabel "dt (s)"; set ylabel "E0 (Pa)"; set key off; set xrange [3e-5:0.03]; set yrange [7e3:3e6]'
+    echo 'cfl(E) = 0.5 * 0.01 / sqrt(1.111 * E / 400)'
+    echo 'set parametric; set trange [7e3:3e6]'
+    for p in $panels; do
+      for st in finished diverged tunnelled nan escaped; do
+        awk -F, -v p=$p -v st=$st '$3 == p && $10 == st {print $4, ($8 > 0 ? $8 : 1.4e5)}' stab \
+          > "map.$p.$st"
+        [ -s "map.$p.$st" ] || echo "1 1" > "map.$p.$st"  # off the axes: keeps the plot valid
+      done
+      title=$p
+      echo "set title \"$title\""
+      echo "plot cfl(t), t w l lc rgb 'gray' dt 2, 'map.$p.finished' u 1:2 w p pt 7 ps 1.2 lc rgb '#2ca02c', 'map.$p.diverged' u 1:2 w p pt 2 ps 1.5 lc rgb '#d62728', 'map.$p.tunnelled' u 1:2 w p pt 5 ps 1.2 lc rgb '#ff7f0e', 'map.$p.nan' u 1:2 w p pt 3 lc rgb 'black', 'map.$p.escaped' u 1:2 w p pt 4 lc rgb 'purple'"
+    done
+    echo 'unset multiplot'
+  } >> charts.gp
+  plots="$plots stability_map"
+fi
 
-set output "$OLDPWD/$out/error_vs_dt.png"
-set key bottom right opaque box
-set title "Convergence in the time step (cell 0.01 m, 9 particles per cell)"
-set xlabel "dt (s)"; set ylabel "error"
-plot "snowball_drop.dt" u 1:4 w lp pt 7 t "free-fall error (m), snowball drop", \
-     "snowball_drop.dt" u 1:3 w lp pt 5 t "centre-of-mass path error (m), snowball drop", \
-     "column_thrown_ball.dt" u 1:3 w lp pt 9 t "centre-of-mass path error (m), thrown ball", \
-     x * 0.07 dt 2 lc rgb "gray" t "first order (slope 1)"
-
-set output "$OLDPWD/$out/error_vs_cellsize.png"
-set title "Error against cell size (dt 0.0005 s, 9 particles per cell)"
-set xlabel "cell size (m)"; set ylabel "error"
-plot "snowball_drop.h" u 1:2 w lp pt 7 t "density field, snowball drop", \
-     "column_thrown_ball.h" u 1:2 w lp pt 5 t "density field, thrown ball", \
-     "snowball_drop.h" u 1:3 w lp pt 9 t "centre of mass (m), snowball drop", \
-     "column_thrown_ball.h" u 1:3 w lp pt 11 t "centre of mass (m), thrown ball"
-
-unset logscale
-set output "$OLDPWD/$out/walltime_vs_particles.png"
-set title "Wall time against particle count (1 s simulated, dt 0.001 s)"
-set xlabel "particles"; set ylabel "wall time (s)"
-f(x) = a * x + b
-a = 1e-4; b = 1e-3
-set fit quiet logfile "/dev/null"
-fit f(x) "< cat snowball_drop.n column_thrown_ball.n" u 1:2 via a, b
-plot "snowball_drop.n" u 1:2 w p pt 7 t "snowball drop", \
-     "column_thrown_ball.n" u 1:2 w p pt 5 t "thrown ball", \
-     f(x) lc rgb "black" t sprintf("fit: %.3g s per particle + %.3g s", a, b)
-
-set output "$OLDPWD/$out/table1.png"
-set title "Report Table 1 (1 s simulated, i3-2100) beside snowsim (dt 0.001, 9 per cell)"
-set style data histograms; set style fill solid 0.8; set boxwidth 0.8
-set logscale y; set ylabel "wall time (s)"; set xlabel ""
-set key top left
-\$table << EOD
-"snowball drop" 45.3 $(cat snowball_drop.table1)
-"thrown ball" 138 $(cat column_thrown_ball.table1)
-EOD
-plot \$table u 2:xtic(1) t "report", "" u 3 t "snowsim"
-GP
-echo "charts: wrote $(ls "$OLDPWD/$out" | tr '\n' ' ')in $out"
+gnuplot charts.gp 2> gnuplot.log || { cat gnuplot.log >&2; exit 1; }
+echo "charts: wrote$plots in $out"

@@ -219,20 +219,18 @@ double centreOfMassPathError(const Frames& run, const Frames& reference) {
   return total / frames;
 }
 
-double fractionThroughTower(const Frames& frames, double tower_left_x) {
+double ballPastTower(const Frames& frames, double tower_left_x) {
   if (frames.empty()) return 0;
   const auto ball = membersLeftOf(frames.front(), tower_left_x);
   const auto tower = membersRightOf(frames.front(), tower_left_x);
   if (ball.empty() || tower.empty()) return 0;
-  const double tower_centre = centreOfMass(frames.front(), tower)[0];
-  int through = 0;
-  for (int i : ball)
-    if (frames.back().position[i][0] > tower_centre) ++through;
-  return static_cast<double>(through) / ball.size();
+  double far_face = -1e300;
+  for (int i : tower) far_face = std::max(far_face, double(frames.back().position[i][0]));
+  return centreOfMass(frames.back(), ball)[0] - far_face;
 }
 
 bool thrownBallStaysOutside(const Frames& frames, double tower_left_x) {
-  return fractionThroughTower(frames, tower_left_x) < 0.1;
+  return ballPastTower(frames, tower_left_x) < 0;
 }
 
 double pileHeight(const Snapshot& s) {

@@ -89,6 +89,11 @@ TEST(Metrics, ThrownBallClaim) {
   for (int i = 0; i < 20; ++i) stopped.position[i][0] += 0.03f, through.position[i][0] += 0.07f;
   EXPECT_TRUE(thrownBallStaysOutside({start, stopped}, 0.055));
   EXPECT_FALSE(thrownBallStaysOutside({start, through}, 0.055));
+  // The ball's centre moves from x = 0.02 to 0.09; the tower (not moved) has its far face at its
+  // largest x.
+  double far_face = 0;
+  for (int i = 20; i < 40; ++i) far_face = std::max(far_face, double(start.position[i][0]));
+  EXPECT_NEAR(ballPastTower({start, through}, 0.055), 0.09 - far_face, 1e-6);
 }
 
 TEST(Metrics, PileHeightOrdering) {

@@ -32,23 +32,15 @@ TEST(StudyCommand, TinyPresetWritesCaughtRowsAndSkipsOnRerun) {
   std::string line;
   std::getline(in, line);
   const auto header = split(line);
-  const std::vector<std::string> expected = {"build",
-                                             "scene",
-                                             "solver",
-                                             "dt",
-                                             "refine",
-                                             "particles_per_cell",
-                                             "duration",
-                                             "cell_size",
-                                             "status",
-                                             "wall_s",
-                                             "steps",
-                                             "particles",
-                                             "err_density",
-                                             "err_height_m",
-                                             "err_com_m",
-                                             "free_fall_err_m",
-                                             "claim_ball_outside",
+  const std::vector<std::string> expected = {"build",           "scene",
+                                             "solver",          "dt",
+                                             "refine",          "particles_per_cell",
+                                             "duration",        "E0",
+                                             "cell_size",       "status",
+                                             "wall_s",          "steps",
+                                             "particles",       "err_density",
+                                             "err_height_m",    "err_com_m",
+                                             "free_fall_err_m", "ball_past_tower_m",
                                              "message"};
   ASSERT_EQ(header, expected);
   int rows = 0, finished = 0;
@@ -58,28 +50,33 @@ TEST(StudyCommand, TinyPresetWritesCaughtRowsAndSkipsOnRerun) {
     EXPECT_EQ(line.find("inf"), std::string::npos) << line;
     const auto f = split(line);
     ASSERT_EQ(f.size(), expected.size()) << line;
-    const std::string& status = f[8];
+    const std::string &solver = f[2], &dt = f[3], &status = f[9];
     EXPECT_TRUE(status == "finished" || status == "diverged" || status == "escaped" ||
                 status == "tunnelled" || status == "nan")
         << status;
     if (status == "finished") {
       ++finished;
-      EXPECT_FALSE(f[12].empty());
-      EXPECT_GE(std::stod(f[12]), 0.0);
+      EXPECT_FALSE(f[13].empty());
+      EXPECT_GE(std::stod(f[13]), 0.0);
     }
     if (status == "diverged" || status == "nan") {
-      EXPECT_TRUE(f[12].empty()) << line;
+      EXPECT_TRUE(f[13].empty()) << line;
     }
+    // Explicit MPM at dt 0.004, twenty times its CFL limit, must be caught, not written out.
+    if (solver == "mpm_mls" && dt == "0.004")
+      EXPECT_EQ(status, "diverged") << line;
+    else
+      EXPECT_EQ(status, "finished") << line;
   }
-  EXPECT_EQ(rows, 3);
-  EXPECT_GE(finished, 2);  // dt 0.004 and 0.002 are within the advection limit
+  EXPECT_EQ(rows, 4);
+  EXPECT_EQ(finished, 3);
 
   // A rerun by the same build finds everything measured.
   ASSERT_EQ(std::system((command + " > " + (dir.string() + ".log")).c_str()), 0);
   std::ifstream log(dir.string() + ".log");
   std::stringstream text;
   text << log.rdbuf();
-  EXPECT_NE(text.str().find("0 runs measured, 3 already measured"), std::string::npos)
+  EXPECT_NE(text.str().find("0 runs measured, 4 already measured"), std::string::npos)
       << text.str();
 }
 
@@ -91,8 +88,8 @@ long stepsOfRun(const std::string& arguments) {
   const auto dir = std::filesystem::temp_directory_path() / "snowsim_quality_test";
   std::filesystem::remove_all(dir);
   const std::string command = std::string(SNOWSIM_BINARY) + " run " + SNOWSIM_SOURCE_DIR +
-                              "/scenes/snowball_drop.json --no-png --no-ply -o " + dir.string() +
-                              " " + arguments + " 2>/dev/null";
+                              "/scenes/snowball_drop.json --no-png --no-ply --no-mp4 -o " +
+                              dir.string() + " " + arguments + " 2>/dev/null";
   if (std::system(command.c_str()) != 0) return -1;
   std::ifstream in(dir / "run.json");
   std::stringstream text;
@@ -104,9 +101,16 @@ long stepsOfRun(const std::string& arguments) {
 
 TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {
   EXPECT_EQ(stepsOfRun("--quality draft"), 200);       // dt 0.005 over 1 s
-  EXPECT_EQ(stepsOfRun("--quality reference"), 2000);  // dt 0.0005
+  EXPECT_EQ(stepsOfRun("--quality reference"), 5000);  // dt 0.0002
   EXPECT_EQ(stepsOfRun("--quality draft --set time.dt=0.01"), 100);
   EXPECT_EQ(stepsOfRun("--quality bogus"), -1);
+  // MPM scenes get the semi-implicit levels: the step is capped by time.dt (0.005 draft, 0.002
+  // figure) and by advection, so at least 200 and 500 steps over 1 s.
+  const long mpm_draft = stepsOfRun("--set solver=mpm --quality draft");
+  const long mpm_figure = stepsOfRun("--set solver=mpm --quality figure");
+  EXPECT_GE(mpm_draft, 200);
+  EXPECT_GE(mpm_figure, 500);
+  EXPECT_LT(mpm_draft, mpm_figure);
 }
 
 }  // namespace

@@ -37,7 +37,8 @@ struct Config {
   double E0 = 0;  // MPM Young's modulus (Pa); 0: the scene's
 };
 
-struct Preset {
+// One family of runs: every combination of its lists. A preset is one or more sweeps.
+struct Sweep {
   std::vector<std::string> scenes;
   std::vector<std::string> solvers;
   std::vector<double> dts;
@@ -71,41 +72,44 @@ const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip", 
                                               "mpm_mls",        "mpm_apic_semi", "mpm_mls_semi"};
 
 // tiny: three runs for the CI test. quick: a few minutes on 2 cores. full: the study of
-// docs/study.md. stability: the stability map (time step against Young's modulus). Each includes
-// steps beyond the explicit limit and dt = 0.01, the report's Fig. 8 failure.
-Preset presetNamed(const std::string& name) {
+// docs/study.md (the 2D scenes over cell size too; the 3D smash at one cell size, as its
+// reference at half the cell size is already 15k particles). stability: the stability map (time
+// step against Young's modulus). Each includes steps beyond the explicit limit and dt = 0.01, the
+// report's Fig. 8 failure.
+std::vector<Sweep> presetNamed(const std::string& name) {
   if (name == "tiny")
-    return {{"snowball_drop"}, {"density_hybrid", "mpm_mls"}, {0.004, 2e-4}, {1}, {4}, 0.1};
+    return {{{"snowball_drop"}, {"density_hybrid", "mpm_mls"}, {0.004, 2e-4}, {1}, {4}, 0.1}};
   if (name == "quick")
-    return {{"snowball_drop", "column_thrown_ball"},
-            {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
-            {0.01, 0.002, 2e-4},
-            {1},
-            {9},
-            0.3};
+    return {{{"snowball_drop", "column_thrown_ball"},
+             {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
+             {0.01, 0.002, 2e-4},
+             {1},
+             {9},
+             0.3}};
   if (name == "full")
-    return {{"snowball_drop", "column_thrown_ball", "study_smash_3d"},
-            kAllSolvers,
-            {0.05, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4},
-            {1, 2},
-            {4, 9, 16},
-            0.5};
+    return {{{"snowball_drop", "column_thrown_ball"},
+             kAllSolvers,
+             {0.05, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4},
+             {1, 2},
+             {4, 9, 16},
+             0.5},
+            {{"study_smash_3d"}, kAllSolvers, {0.01, 0.005, 0.002, 0.001, 5e-4}, {1}, {4, 9}, 0.3}};
   if (name == "stability")
-    return {{"column_thrown_ball"},
-            {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
-            {0.02, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4, 5e-5},
-            {1},
-            {9},
-            0.3,
-            {1.4e4, 1.4e5, 1.4e6},
-            false};
+    return {{{"column_thrown_ball"},
+             {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
+             {0.02, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4, 1e-4, 5e-5},
+             {1},
+             {9},
+             0.3,
+             {1.4e4, 1.4e5, 1.4e6},
+             false}};
   throw InputError("--preset: unknown preset '" + name +
                    "'; allowed: tiny, quick, full, stability");
 }
 
 // The reference: the most accurate solver (APIC MPM, its step at the CFL limit and at most a
 // quarter of the sweep's finest dt) at half the finest cell size and the most particles per cell.
-Config referenceFor(const std::string& scene, const Preset& p) {
+Config referenceFor(const std::string& scene, const Sweep& p) {
   Config c;
   c.scene = scene;
   c.solver = "reference_mpm_apic";
@@ -258,26 +262,19 @@ std::string csvField(std::string text) {
   return text;
 }
 
-void study(const StudyOptions& options) {
-  const Preset preset = presetNamed(options.preset);
-  const std::string build = buildId();
-  const bool existed = std::filesystem::exists(options.out);
-  const std::set<std::string> done = measuredKeys(options.out);
-  if (!std::filesystem::path(options.out).parent_path().empty())
-    std::filesystem::create_directories(std::filesystem::path(options.out).parent_path());
-  std::ofstream csv(options.out, std::ios::app);
-  if (!csv) throw InputError("--out: cannot write " + options.out);
-  if (!existed) csv << kHeader << "\n";
-
-  int measured = 0, skipped = 0;
-  for (const std::string& scene : preset.scenes) {
+// Runs the configurations of one sweep that this build has not measured yet, appending a CSV
+// row per run; returns how many it ran and adds to `skipped` those already measured.
+int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string& build,
+             const std::set<std::string>& done, std::ofstream& csv, int& skipped) {
+  int measured = 0;
+  for (const std::string& scene : sweep.scenes) {
     std::vector<Config> todo;
-    for (const std::string& solver : preset.solvers)
-      for (double E0 : preset.E0s)
-        for (double dt : preset.dts)
-          for (int refine : preset.refines)
-            for (int ppc : preset.particles_per_cell) {
-              const Config c{scene, solver, dt, refine, ppc, preset.duration, E0};
+    for (const std::string& solver : sweep.solvers)
+      for (double E0 : sweep.E0s)
+        for (double dt : sweep.dts)
+          for (int refine : sweep.refines)
+            for (int ppc : sweep.particles_per_cell) {
+              const Config c{scene, solver, dt, refine, ppc, sweep.duration, E0};
               if (done.count(keyOf(build, c))) {
                 ++skipped;
                 continue;
@@ -287,8 +284,8 @@ void study(const StudyOptions& options) {
     if (todo.empty()) continue;
 
     Outcome reference;
-    if (preset.errors) {
-      const Config ref_config = referenceFor(scene, preset);
+    if (sweep.errors) {
+      const Config ref_config = referenceFor(scene, sweep);
       std::fprintf(stderr, "study: %s reference (%s, dt <= %s, cell/%d, %d per cell)\n",
                    scene.c_str(), ref_config.solver.c_str(), format(ref_config.dt).c_str(),
                    ref_config.refine, ref_config.particles_per_cell);
@@ -313,7 +310,7 @@ void study(const StudyOptions& options) {
         past_tower = format(past);
         if (past > 0 && status == "finished") status = "tunnelled";  // through the tower
       }
-      if (usable && preset.errors) {
+      if (usable && sweep.errors) {
         const bool falls_freely = tower < 0 && base.dimension == 2;
         const auto [frames, ref] = atCommonTimes(run.frames, reference.frames);
         errors = format(densityFieldError(frames, ref, field)) + "," +
@@ -331,6 +328,23 @@ void study(const StudyOptions& options) {
                    c.particles_per_cell, status.c_str(), run.wall);
     }
   }
+  return measured;
+}
+
+void study(const StudyOptions& options) {
+  const std::string build = buildId();
+  const bool existed = std::filesystem::exists(options.out);
+  const std::set<std::string> done = measuredKeys(options.out);
+  if (!std::filesystem::path(options.out).parent_path().empty())
+    std::filesystem::create_directories(std::filesystem::path(options.out).parent_path());
+  std::ofstream csv(options.out, std::ios::app);
+  if (!csv) throw InputError("--out: cannot write " + options.out);
+  if (!existed) csv << kHeader << "\n";
+
+  int measured = 0, skipped = 0;
+  for (const Sweep& sweep : presetNamed(options.preset))
+    measured += runSweep(options, sweep, build, done, csv, skipped);
+
   std::printf("study: %d runs measured, %d already measured for build %s; results in %s\n",
               measured, skipped, build.c_str(), options.out.c_str());
 }

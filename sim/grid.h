@@ -3,6 +3,7 @@
 // arrays indexed by GridGeometry::index.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include "sim/math.h"
@@ -48,6 +49,29 @@ struct GridGeometry {
   Vec<D> position(const IVec<D>& i) const { return i.template cast<Real>() * h; }
 };
 
+// A box of stored nodes, [lo, hi) in storage coordinates (0 is the first ghost node): the part
+// of the grid that a step of a sparse scene touches.
+template <int D>
+struct NodeBox {
+  IVec<D> lo = IVec<D>::Zero(), hi = IVec<D>::Zero();
+
+  int count() const {
+    int c = 1;
+    for (int a = 0; a < D; ++a) c *= std::max(0, hi[a] - lo[a]);
+    return c;
+  }
+  // Flat grid index of the n-th node of the box, first axis fastest like the grid's own order.
+  int flatIndex(const GridGeometry<D>& grid, int n) const {
+    int k = 0;
+    for (int a = 0; a < D; ++a) {
+      const int extent = hi[a] - lo[a];
+      k += (lo[a] + n % extent) * grid.stride[a];
+      n /= extent;
+    }
+    return k;
+  }
+};
+
 // Per-node mass, velocity and force: the fields every grid solver here rasterises into.
 template <int D>
 struct GridFields {
@@ -66,6 +90,11 @@ struct GridFields {
     std::fill(mass.begin(), mass.end(), Real(0));
     std::fill(velocity.begin(), velocity.end(), Vec<D>::Zero());
     std::fill(force.begin(), force.end(), Vec<D>::Zero());
+  }
+  void clearNode(int k) {
+    mass[k] = 0;
+    velocity[k].setZero();
+    force[k].setZero();
   }
 };
 

@@ -99,11 +99,14 @@ void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
   std::fill(block_start_.begin(), block_start_.end(), 0);
   const Real inv = 1 / (grid_.h * block_cells);
+  IVec<D> first_block = blocks_, last_block = IVec<D>::Constant(-1);
   for (int p = 0; p < n; ++p) {
     int b = 0, s = 1;
     for (int a = 0; a < D; ++a) {
       const int k =
           std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+      first_block[a] = std::min(first_block[a], k);
+      last_block[a] = std::max(last_block[a], k);
       b += k * s;
       s *= blocks_[a];
     }
@@ -115,20 +118,37 @@ void MpmSolver<D>::binParticles() {
   std::vector<int>& next = v_cursor_;
   next.assign(block_start_.begin(), block_start_.end() - 1);
   for (int p = 0; p < n; ++p) order_[next[particle_block_[p]]++] = p;
+
+  // A particle of cell c reaches nodes c-1 .. c+2 with either kernel; two more on each side hold
+  // particles just outside the domain, which the edge blocks keep.
+  previously_active_ = active_;
+  for (int a = 0; a < D; ++a) {
+    active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
+    active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
+  }
+}
+
+template <int D>
+template <class F>
+void MpmSolver<D>::forActiveNodes(F&& f) {
+  const int count = active_.count();
+#pragma omp parallel for schedule(static) if (parallel_)
+  for (int n = 0; n < count; ++n) f(active_.flatIndex(grid_, n));
 }
 
 template <int D>
 void MpmSolver<D>::rasterise(Real dt) {
-  fields_.clear();
+  // Only the last step's box holds anything: clearing it zeroes the whole grid.
+  const int stale = previously_active_.count();
+#pragma omp parallel for schedule(static) if (parallel_)
+  for (int n = 0; n < stale; ++n) fields_.clearNode(previously_active_.flatIndex(grid_, n));
   withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
   // Momentum to velocity; keep the rasterised velocity for the FLIP increment.
-  const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int k = 0; k < nodes; ++k) {
+  forActiveNodes([&](int k) {
     const Real m = fields_.mass[k];
     fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
     fields_.velocity_old[k] = fields_.velocity[k];
-  }
+  });
 }
 
 template <int D>
@@ -207,23 +227,21 @@ void MpmSolver<D>::computeParticleVolumes() {
 
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
-  const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int k = 0; k < nodes; ++k) {
+  forActiveNodes([&](int k) {
     const Real m = fields_.mass[k];
     if (m > 0) fields_.velocity[k] += dt * (fields_.force[k] / m + gravity_);  // eq. 8, explicit
-  }
+  });
 }
 
 template <int D>
 void MpmSolver<D>::solveImplicitVelocities(Real dt) {
   // Section 9: grid collisions act on v* before the solve, which then holds what they fixed.
-  const int nodes = grid_.nodeCount();
-  node_free_.resize(nodes);
-  for (int k = 0; k < nodes; ++k)
+  node_free_.resize(grid_.nodeCount());
+  forActiveNodes([&](int k) {
     if (fields_.mass[k] > 0)
       node_free_[k] =
           collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
+  });
   implicit_.prepare(grid_, fields_, particles_, F_E_, lame_, params_, dt);
   last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
                                 params_.implicit_tolerance, params_.implicit_max_iterations);
@@ -238,13 +256,11 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
 
 template <int D>
 void MpmSolver<D>::collideGrid() {
-  const int nodes = grid_.nodeCount();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int k = 0; k < nodes; ++k) {
-    if (fields_.mass[k] <= 0) continue;
+  forActiveNodes([&](int k) {
+    if (fields_.mass[k] <= 0) return;
     const Vec<D> x = grid_.position(grid_.coords(k));
     for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
-  }
+  });
 }
 
 template <int D>

@@ -61,6 +61,8 @@ class MpmSolver final : public Solver<D> {
 
  private:
   void binParticles();
+  template <class F>
+  void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
   template <class Kernel>
   void rasteriseWith(Real dt);
   template <class Kernel>
@@ -83,7 +85,6 @@ class MpmSolver final : public Solver<D> {
   GridFields<D> fields_;
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene
-  std::vector<Vec<D>> node_position_;
   // Deterministic parallel P2G: particles binned into blocks of 4^D cells, blocks processed in 2^D
   // colours so no two blocks of a colour write the same node; fixed order within a block.
   static constexpr int block_cells = 4;
@@ -93,6 +94,10 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> particle_block_;
   std::vector<int> v_cursor_;  // counting-sort cursors, one per block
   std::vector<std::vector<int>> colour_blocks_;
+  // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
+  // stages touch only these, so a small snowball in a large domain costs what the snowball does.
+  // Nodes outside stay zero (rasterise clears the previous step's box).
+  NodeBox<D> active_, previously_active_;
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.

@@ -1,6 +1,9 @@
 // Visiting the grid nodes of one particle's B-spline stencil, shared by every solver.
 #pragma once
 
+#include <type_traits>
+#include <utility>
+
 #include "sim/bspline.h"
 #include "sim/grid.h"
 
@@ -16,25 +19,34 @@ struct StencilVisit {
 };
 
 // Calls f(const StencilVisit<D>&) for every node of the particle's stencil, axis 0 fastest. The
-// offsets advance like an odometer: no integer division per node in the transfer hot loops.
-template <int D, class Kernel, class F>
-inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x,
-                         F&& f) {
+// nodes are unrolled at compile time (a fold over the node numbers), so each node's offsets are
+// constants: no integer division and no loop in the transfer hot loops.
+template <int D, class Kernel, class F, int... Node>
+inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s,
+                              const Vec<D>& x, F&& f, std::integer_sequence<int, Node...>) {
   constexpr int S = Kernel::support;
   Real dx[D][S];
   for (int a = 0; a < D; ++a)
     for (int o = 0; o < S; ++o) dx[a][o] = (s.base[a] + o) * grid.h - x[a];
-  StencilVisit<D> v{grid.index(s.base), {}, {}};
-  for (int n = 0; n < Stencil<D, Kernel>::nodes; ++n) {
-    for (int a = 0; a < D; ++a) v.dx[a] = dx[a][v.offset[a]];
-    f(static_cast<const StencilVisit<D>&>(v));
-    for (int a = 0; a < D; ++a) {
-      v.index += grid.stride[a];
-      if (++v.offset[a] < S) break;
-      v.index -= S * grid.stride[a];
-      v.offset[a] = 0;
+  const int base = grid.index(s.base);
+  auto visit = [&]<int n>(std::integral_constant<int, n>) {
+    StencilVisit<D> v;
+    v.index = base;
+    for (int a = 0, place = 1; a < D; ++a, place *= S) {
+      v.offset[a] = n / place % S;
+      v.dx[a] = dx[a][v.offset[a]];
+      v.index += v.offset[a] * grid.stride[a];
     }
-  }
+    f(static_cast<const StencilVisit<D>&>(v));
+  };
+  (visit(std::integral_constant<int, Node>{}), ...);
+}
+
+template <int D, class Kernel, class F>
+inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x,
+                         F&& f) {
+  visitStencilNodes(grid, s, x, std::forward<F>(f),
+                    std::make_integer_sequence<int, Stencil<D, Kernel>::nodes>{});
 }
 
 // Calls f(node_index, weight, weight_gradient) for every node of the particle's stencil.

@@ -261,6 +261,23 @@ TEST(Mpm, ExplicitAboveTheCflLimitIsStopped) {
   EXPECT_NO_THROW(rerun->advanceTo(0.2));
 }
 
+TEST(Mpm, AnUnstableStepSlowerThanACellPerStepIsCaughtByTheEnergy) {
+  // At a fixed dt of 0.001 s explicit MPM blows the snowball drop apart at 2-4 m/s: under a cell
+  // per step, but its kinetic plus gravitational energy doubles. At 0.0005 s it falls intact.
+  const std::string path = SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json";
+  auto unstable =
+      makeSimulation(loadScene(path, {"solver=mpm", "mpm.adaptive_dt=false", "time.dt=0.001"}));
+  try {
+    unstable->advanceTo(0.2);
+    FAIL() << "the explosion was not caught";
+  } catch (const SimulationError& e) {
+    EXPECT_NE(std::string(e.what()).find("energy grew"), std::string::npos) << e.what();
+  }
+  auto stable =
+      makeSimulation(loadScene(path, {"solver=mpm", "mpm.adaptive_dt=false", "time.dt=0.0005"}));
+  EXPECT_NO_THROW(stable->advanceTo(0.2));
+}
+
 TEST(Mpm, BadInputNamesTheField) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"material.nu=0.5", "material.nu"},

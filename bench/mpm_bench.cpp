@@ -70,7 +70,7 @@ void measure(const char* label, const Json& j, int steps, int reps) {
 int main(int argc, char** argv) {
   const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
   const int reps = argc > 2 ? std::atoi(argv[2]) : 5;
-  measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.4), steps, reps);
+  measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44), steps, reps);
   measure<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6), steps, reps);
   measure<3>("3D MLS quadratic", sceneJson(3, 32, 0.5), steps, reps);
 }

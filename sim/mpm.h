@@ -118,9 +118,10 @@ class MpmSolver final : public Solver<D> {
   int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
-  // Threads only pay off for large scenes: on a busy machine, thread start-up and barriers of the
-  // dozen parallel loops per step cost more than a small scene's whole step.
-  static constexpr int parallel_min_particles = 4096;
+  // Threads only pay off from a few thousand particles: below, thread start-up and the barriers of
+  // the dozen parallel loops per step cost more than they share. bench/mpm_bench with the second
+  // core free: x1.71 at 3136 particles (2D), x1.80 at 23716; on a busy machine less.
+  static constexpr int parallel_min_particles = 2048;
   bool parallel_ = false;
   long steps_ = 0;
   Real time_ = 0;

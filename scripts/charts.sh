@@ -23,16 +23,16 @@ for s in $solvers; do
   # error against wall time, every scene of the 2D report
   awk -F, -v s=$s '$3 == s && $14 != "" && $2 != "study_smash_3d" {print $11, $14}' \
     "$work/rows" > "$work/$s.cost"
-  # convergence in dt: the snowball drop at the base resolution
-  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $5 == 1 && $16 != "" {print $4, $16}' \
-    "$work/rows" | sort -g > "$work/$s.dt"
-  # convergence in the cell size: the smallest dt of the sweep
-  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $14 != "" {print $4, $9, $14}' \
+  # convergence in dt: the free-fall error (exact answer) of the snowball drop, base grid, 9 per cell
+  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $5 == 1 && $6 == 9 && $17 != "" \
+    {print $4, $17}' "$work/rows" | sort -g > "$work/$s.dt"
+  # convergence in the cell size: the smallest dt of the sweep, 9 per cell
+  awk -F, -v s=$s '$3 == s && $2 == "snowball_drop" && $6 == 9 && $14 != "" {print $4, $9, $14}' \
     "$work/rows" | sort -g | awk 'NR == 1 {d = $1} $1 == d {print $2, $3}' | sort -g \
     > "$work/$s.h"
-  # cost against particle count
-  awk -F, -v s=$s '$3 == s && $10 == "finished" {print $13, $11 / $12 * 1000}' "$work/rows" \
-    > "$work/$s.n"
+  # cost against particle count: every scene and resolution at one dt, runs that finished
+  awk -F, -v s=$s '$3 == s && $4 == 0.0005 && $10 == "finished" {print $13, $11 / $12 * 1000}' \
+    "$work/rows" > "$work/$s.n"
 done
 awk '{print}' "$work"/*.cost | sort -g | awk 'NR == 1 || $2 < best {best = $2; print}' \
   > "$work/front"
@@ -65,25 +65,25 @@ cd "$work"
   fi
   if [ -n "$(series dt 'w lp')" ]; then
     echo "set output '$out/error_vs_dt.png'"
-    echo 'set title "Convergence in the time step (snowball drop, base grid)"'
-    echo 'set logscale xy; set xlabel "dt (s)"; set ylabel "centre-of-mass path error (m)"'
+    echo 'set title "Convergence in dt: free fall against the exact parabola (snowball drop, 9 per cell)"'
+    echo 'set logscale xy; set xlabel "dt (s)"; set ylabel "free-fall error (m)"'
     echo "plot $(series dt 'w lp pt 7'), x * 0.5 dt 2 lc rgb 'gray' t 'slope 1'"
     plots="$plots error_vs_dt"
   fi
   if [ -n "$(series h 'w lp')" ]; then
     echo "set output '$out/error_vs_cellsize.png'"
-    echo 'set title "Error against cell size (snowball drop, smallest dt of the sweep)"'
+    echo 'set title "Convergence in the cell size (snowball drop, dt 1e-4, 9 per cell)"'
     echo 'set logscale xy; set xlabel "cell size (m)"; set ylabel "density-field error"'
     echo "plot $(series h 'w lp pt 7')"
     plots="$plots error_vs_cellsize"
   fi
   if [ -n "$(series n 'w p')" ]; then
     echo "set output '$out/walltime_vs_particles.png'"
-    echo 'set title "Cost per step against particle count (finished runs)"'
+    echo 'set title "Cost per step against particle count (dt 5e-4, every scene and resolution)"'
     echo 'unset logscale; set logscale xy; set xlabel "particles"; set ylabel "ms per step"'
     echo 'f(x) = a * x; a = 1e-3; set fit quiet logfile "/dev/null"'
-    echo "fit f(x) \"< cat *.n\" u 1:2 via a"
-    echo "plot $(series n 'w p pt 7'), f(x) lc rgb 'black' t sprintf('linear fit: %.2g ms per particle-step', a)"
+    echo "fit f(x) 'mpm_mls.n' u 1:2 via a"
+    echo "plot $(series n 'w p pt 7'), f(x) lc rgb 'black' t sprintf('mpm_mls fit: %.2g ms per particle-step', a)"
     plots="$plots walltime_vs_particles"
   fi
   if [ -s table1.drop ] && [ -s table1.ball ]; then
@@ -101,7 +101,8 @@ cd "$work"
 } > charts.gp
 
 # The stability map: dt against Young's modulus, one panel per solver, each run marked by how
-# it ended; the explicit CFL bound dt = 0.5 h / c, c = sqrt((lambda + 2 mu) / rho) for
+# it ended; the explicit CFL bound of the adaptive step (mpm.cfl = 0.9) dt = 0.9 h / c,
+# c = sqrt((lambda + 2 mu) / rho) for
 # nu = 0.2, rho = 400 kg/m^2, h = 0.01 m (method-notes.md), drawn over it.
 if [ -r "$stability" ]; then
   latest "$stability" > stab
@@ -110,9 +111,9 @@ if [ -r "$stability" ]; then
   {
     echo "set output '$out/stability_map.png'"
     echo "set terminal pngcairo size $((330 * n)),420 font ',10' noenhanced"
-    echo "set multiplot layout 1,$n title 'Stability map: column_thrown_ball, 0.3 s (x: diverged, square: tunnelled, dot: finished)'"
+    echo "set multiplot layout 1,$n title 'Stability map: column_thrown_ball, 0.3 s (x: diverged, square: tunnelled, dot: finished; dashed: the adaptive step 0.9 h / c)'"
     echo 'set logscale xy; set xlabel "dt (s)"; set ylabel "E0 (Pa)"; set key off; set xrange [3e-5:0.03]; set yrange [7e3:3e6]'
-    echo 'cfl(E) = 0.5 * 0.01 / sqrt(1.111 * E / 400)'
+    echo 'cfl(E) = 0.9 * 0.01 / sqrt(1.111 * E / 400)'
     echo 'set parametric; set trange [7e3:3e6]'
     for p in $panels; do
       for st in finished diverged tunnelled nan escaped; do

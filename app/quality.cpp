@@ -1,5 +1,7 @@
-// The quality levels, from the Pareto fronts of the full study (docs/study.md; errors against the
-// APIC MPM reference run, 0.5 s of the report's snowball drop on its 10 x 12 grid).
+// The quality levels, from the full study's Pareto fronts (docs/study.md: errors against the APIC
+// MPM reference run; 0.5 s of the report's snowball drop and thrown ball, 0.3 s of a 3D smash).
+// Costs are `snowsim run --quality L --no-png --no-mp4 --no-ply` over the same durations; errors
+// are the study's rows with the same settings (MPM: the fixed dt nearest the adaptive one).
 #include "app/quality.h"
 
 #include "sim/errors.h"
@@ -8,30 +10,35 @@ namespace snowsim {
 
 namespace {
 
-// The report's method: only its time step and particle count matter (a finer grid does not
-// converge for this method).
+// The report's method: only its time step and particle count matter (a finer grid is a different
+// model for it, not a more accurate one). Study rows, drop / thrown ball:
 std::vector<std::string> densityHybrid(const std::string& level) {
-  // draft: dt 0.005, 9 per cell: 1.8 ms, density-field error 0.70, centre of mass 7.2 mm off.
-  if (level == "draft") return {"time.dt=0.005", "particles_per_cell=9"};
-  // figure: the report's dt 0.001: 12 ms, error 0.53, 3.5 mm (16 per cell).
+  // draft: 2.7 / 5.6 ms, density-field error 0.68 / 0.75. dt 0.005 would halve the cost, but the
+  // thrown ball then tunnels through the tower.
+  if (level == "draft") return {"time.dt=0.002", "particles_per_cell=9"};
+  // figure: 6.9 / 17 ms, error 0.53 / 0.58.
   if (level == "figure") return {"time.dt=0.001", "particles_per_cell=16"};
-  // reference: dt 0.0002, 16 per cell: 57 ms, error 0.27, 2.0 mm.
+  // reference: 33 / 86 ms, error 0.27 / 0.52.
   return {"time.dt=0.0002", "particles_per_cell=16"};
 }
 
-// MPM: the semi-implicit APIC runs form the front from 20 ms up; its step is capped by time.dt
-// and by the advection limit.
+// MPM: explicit MLS at the adaptive CFL step. The semi-implicit solver is on the drop's front at
+// half the cell size but costs 4-10x more on the thrown ball (the tower's ground contact) and
+// 25-60x more in 3D (docs/study.md), so no level uses it.
 std::vector<std::string> mpm(const std::string& level, const Scene& scene) {
-  const std::string ppc = scene.authored_dimension == 2 ? "9" : "8";
-  std::vector<std::string> o = {"mpm.transfer=apic", "mpm.integrator=semi_implicit",
-                                "mpm.adaptive_dt=true", "particles_per_cell=" + ppc};
-  // draft: dt 0.005: 21 ms, error 0.41, centre of mass 3.3 mm off.
-  if (level == "draft") o.push_back("time.dt=0.005");
-  // figure: dt 0.002: 27 ms, error 0.35, 1.2 mm.
-  if (level == "figure") o.push_back("time.dt=0.002");
+  const bool two_d = scene.authored_dimension == 2;
+  std::vector<std::string> o = {"mpm.transfer=mls", "mpm.integrator=explicit",
+                                "mpm.adaptive_dt=true"};
+  // draft: 4 per cell (8 in 3D). Drop / ball / smash: 18 / 25 / 1900 ms, error 0.80 / 0.71 / 0.75.
+  if (level == "draft") o.push_back(std::string("particles_per_cell=") + (two_d ? "4" : "8"));
+  // figure: 9 per cell (8 in 3D: 27 triples the cost for no measured gain): 23 / 58 ms in 2D,
+  // error 0.64 / 0.48.
+  if (level == "figure") o.push_back(std::string("particles_per_cell=") + (two_d ? "9" : "8"));
   if (level == "reference") {
-    // reference: dt 0.002 on a grid of half the cell size: 0.7 s, error 0.10, 0.8 mm.
-    o.push_back("time.dt=0.002");
+    // reference: half the cell size, 9 per cell (27 in 3D), C = 0.5: 0.43 / 1.2 / 147 s, error
+    // 0.23 / 0.27 in 2D (study rows at half the cell size, dt 1e-4).
+    o.push_back(std::string("particles_per_cell=") + (two_d ? "9" : "27"));
+    o.push_back("mpm.cfl=0.5");
     o.push_back("grid.cell_size=" + std::to_string(scene.cell_size / 2));
     std::string cells = "grid.cells=[";
     for (int a = 0; a < scene.authored_dimension; ++a)

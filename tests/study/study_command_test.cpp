@@ -100,17 +100,19 @@ long stepsOfRun(const std::string& arguments) {
 }
 
 TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {
-  EXPECT_EQ(stepsOfRun("--quality draft"), 200);       // dt 0.005 over 1 s
+  EXPECT_EQ(stepsOfRun("--quality draft"), 500);       // dt 0.002 over 1 s
   EXPECT_EQ(stepsOfRun("--quality reference"), 5000);  // dt 0.0002
   EXPECT_EQ(stepsOfRun("--quality draft --set time.dt=0.01"), 100);
   EXPECT_EQ(stepsOfRun("--quality bogus"), -1);
-  // MPM scenes get the semi-implicit levels: the step is capped by time.dt (0.005 draft, 0.002
-  // figure) and by advection, so at least 200 and 500 steps over 1 s.
+  // MPM scenes get explicit MLS at the adaptive step: the same CFL step for draft and figure
+  // (the particle count differs), and more than twice the steps at the reference level's half
+  // cell size and C = 0.5.
   const long mpm_draft = stepsOfRun("--set solver=mpm --quality draft");
   const long mpm_figure = stepsOfRun("--set solver=mpm --quality figure");
-  EXPECT_GE(mpm_draft, 200);
-  EXPECT_GE(mpm_figure, 500);
-  EXPECT_LT(mpm_draft, mpm_figure);
+  const long mpm_reference = stepsOfRun("--set solver=mpm --quality reference");
+  EXPECT_GT(mpm_draft, 1000);  // the CFL step of E0 = 1.4e5 Pa snow on 1 cm cells is ~0.5 ms
+  EXPECT_NEAR(mpm_figure, mpm_draft, 0.2 * mpm_draft);
+  EXPECT_GT(mpm_reference, 3 * mpm_figure);
 }
 
 }  // namespace

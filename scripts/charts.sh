@@ -36,9 +36,9 @@ for s in $solvers; do
 done
 awk '{print}' "$work"/*.cost | sort -g | awk 'NR == 1 || $2 < best {best = $2; print}' \
   > "$work/front"
-awk -F, '$3 == "density_hybrid" && $2 == "snowball_drop" && $4 == 0.001 && $5 == 1 {print $11 / $7}' \
+awk -F, '$3 == "density_hybrid" && $2 == "snowball_drop" && $4 == 0.001 && $5 == 1 && $6 == 9 {print $11 / $7}' \
   "$work/rows" | head -n 1 > "$work/table1.drop"
-awk -F, '$3 == "density_hybrid" && $2 == "column_thrown_ball" && $4 == 0.001 && $5 == 1 {print $11 / $7}' \
+awk -F, '$3 == "density_hybrid" && $2 == "column_thrown_ball" && $4 == 0.001 && $5 == 1 && $6 == 9 {print $11 / $7}' \
   "$work/rows" | head -n 1 > "$work/table1.ball"
 
 plots=""

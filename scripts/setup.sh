@@ -13,8 +13,8 @@ packages=(
   # render/: off-screen OpenGL, maths, image and video files
   libosmesa6-dev libglm-dev libstb-dev libpng-dev
   libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
-  # tests and benchmarks (ffmpeg gives ffprobe for reading videos back)
-  libgtest-dev libgmock-dev libbenchmark-dev ffmpeg
+  # tests (ffmpeg gives ffprobe for reading videos back)
+  libgtest-dev libgmock-dev ffmpeg
   # charts for the speed/accuracy study
   gnuplot-nox
 )

@@ -77,16 +77,17 @@ RenderSink::RenderSink(const RenderSettings& settings, std::string png_dir,
 }
 
 void RenderSink::write(const Snapshot& snapshot) {
-  const Image image = renderer_.render(snapshot);
+  Image image = renderer_.render(snapshot);
+  if (video_) video_->addFrame(image);
   if (!png_dir_.empty()) {
     char name[32];
     std::snprintf(name, sizeof name, "/frame_%05d.png", snapshot.frame);
-    writePng(png_dir_ + name, image);
+    png_writer_.write(png_dir_ + name, std::move(image));  // encoded while the next frame runs
   }
-  if (video_) video_->addFrame(image);
 }
 
 void RenderSink::finish() {
+  png_writer_.finish();
   if (video_) video_->finish();
 }
 

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/frame_sink.h"
+#include "app/png_writer.h"
 #include "render/renderer.h"
 #include "render/video_encoder.h"
 
@@ -53,6 +54,7 @@ class RenderSink final : public FrameSink {
   std::string png_dir_;
   Renderer renderer_;
   std::unique_ptr<VideoEncoder> video_;
+  BackgroundPngWriter png_writer_;
 };
 
 }  // namespace snowsim

@@ -71,14 +71,12 @@ std::vector<std::string> solverOverrides(const std::string& label) {
 const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip",  "mpm_apic",
                                               "mpm_mls",        "mpm_apic_semi", "mpm_mls_semi"};
 
-// tiny: three runs for the CI test. quick: a few minutes on 2 cores. full: the study of
+// quick: 18 runs in seconds, for CI (tests/study). full: the study of
 // docs/study.md (the 2D scenes over cell size too; the 3D smash at one cell size, as its
 // reference at half the cell size is already 15k particles). stability: the stability map (time
 // step against Young's modulus). Each includes steps beyond the explicit limit and dt = 0.01, the
 // report's Fig. 8 failure.
 std::vector<Sweep> presetNamed(const std::string& name) {
-  if (name == "tiny")
-    return {{{"snowball_drop"}, {"density_hybrid", "mpm_mls"}, {0.004, 2e-4}, {1}, {4}, 0.1}};
   if (name == "quick")
     return {{{"snowball_drop", "column_thrown_ball"},
              {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
@@ -103,8 +101,7 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              0.3,
              {1.4e4, 1.4e5, 1.4e6},
              false}};
-  throw InputError("--preset: unknown preset '" + name +
-                   "'; allowed: tiny, quick, full, stability");
+  throw InputError("--preset: unknown preset '" + name + "'; allowed: quick, full, stability");
 }
 
 // The reference: the most accurate solver (APIC MPM, its step at the CFL limit and at most a
@@ -355,8 +352,7 @@ void addStudyCommand(CLI::App& app) {
   auto options = std::make_shared<StudyOptions>();
   CLI::App* cmd = app.add_subcommand(
       "study", "Measure speed against accuracy over solvers, time steps and resolutions");
-  cmd->add_option("--preset", options->preset, "tiny | quick | full | stability")
-      ->capture_default_str();
+  cmd->add_option("--preset", options->preset, "quick | full | stability")->capture_default_str();
   cmd->add_flag_callback(
       "--quick", [options] { options->preset = "quick"; },
       "Same as --preset quick: a few minutes on 2 cores, for CI");

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -71,11 +73,23 @@ std::vector<std::string> solverOverrides(const std::string& label) {
 const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip",  "mpm_apic",
                                               "mpm_mls",        "mpm_apic_semi", "mpm_mls_semi"};
 
-// quick: 18 runs in seconds, for CI (tests/study). full: the study of
+// quick: 21 runs in seconds, for CI (tests/study). full: the study of
 // docs/study.md (the 2D scenes over cell size too; the 3D smash at one cell size, as its
 // reference at half the cell size is already 15k particles). stability: the stability map (time
 // step against Young's modulus). Each includes steps beyond the explicit limit and dt = 0.01, the
 // report's Fig. 8 failure.
+// The report's Fig. 6 claim (pile heights x2 > x4 > x8 at 0.5 s), scored on each x8 row.
+Sweep pileClaimSweep(std::vector<double> dts, std::vector<int> particles_per_cell) {
+  return {{"critical_density_x2", "critical_density_x4", "critical_density_x8"},
+          {"density_hybrid"},
+          std::move(dts),
+          {1},
+          std::move(particles_per_cell),
+          0.5,
+          {0},
+          false};
+}
+
 std::vector<Sweep> presetNamed(const std::string& name) {
   if (name == "quick")
     return {{{"snowball_drop", "column_thrown_ball"},
@@ -83,7 +97,8 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              {0.01, 0.002, 2e-4},
              {1},
              {9},
-             0.3}};
+             0.3},
+            pileClaimSweep({0.001}, {9})};
   if (name == "full")
     return {{{"snowball_drop", "column_thrown_ball"},
              kAllSolvers,
@@ -91,7 +106,8 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              {1, 2},
              {4, 9, 16},
              0.5},
-            {{"study_smash_3d"}, kAllSolvers, {0.01, 0.005, 0.002, 0.001, 5e-4}, {1}, {4, 9}, 0.3}};
+            {{"study_smash_3d"}, kAllSolvers, {0.01, 0.005, 0.002, 0.001, 5e-4}, {1}, {4, 9}, 0.3},
+            pileClaimSweep({0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4}, {4, 9, 16})};
   if (name == "stability")
     return {{{"column_thrown_ball"},
              {"density_hybrid", "mpm_mls", "mpm_apic_semi"},
@@ -226,17 +242,23 @@ std::pair<Frames, Frames> atCommonTimes(const Frames& run, const Frames& referen
   return common;
 }
 
-// The tower's left edge in the thrown-ball scene: the body named "column".
+// The tower's left edge in a thrown-ball scene (a body named "column" and one named "ball");
+// -1 for any other scene.
 double towerLeftEdge(const StudyOptions& options, const std::string& scene_name) {
   const Scene scene = loadScene(options.scenes + "/" + scene_name + ".json");
-  for (const Body& b : scene.bodies)
-    if (b.name == "column") return b.center[0] - b.size[0] / 2;
-  return -1;
+  double edge = -1;
+  bool ball = false;
+  for (const Body& b : scene.bodies) {
+    if (b.name == "column") edge = b.center[0] - b.size[0] / 2;
+    ball = ball || b.name == "ball";
+  }
+  return ball ? edge : -1;
 }
 
 const char* kHeader =
     "build,scene,solver,dt,refine,particles_per_cell,duration,E0,cell_size,status,wall_s,steps,"
-    "particles,err_density,err_height_m,err_com_m,free_fall_err_m,ball_past_tower_m,message";
+    "particles,err_density,err_height_m,err_com_m,free_fall_err_m,ball_past_tower_m,"
+    "pile_height_m,claim,message";
 
 std::set<std::string> measuredKeys(const std::string& csv) {
   std::set<std::string> keys;
@@ -253,6 +275,32 @@ std::set<std::string> measuredKeys(const std::string& csv) {
   return keys;
 }
 
+// The report's Fig. 6 claim takes three runs: the final piles of critical density x2 and x4 are
+// kept, per configuration, until the x8 run of the same configuration scores x2 > x4 > x8.
+class PileClaim {
+ public:
+  // "pass" or "fail" for the x8 run of a configuration whose x2 and x4 runs were seen; else "".
+  std::string score(const Config& c, const Snapshot& last) {
+    const std::string family = "critical_density_x";
+    if (c.scene.rfind(family, 0) != 0) return "";
+    const std::string multiplier = c.scene.substr(family.size());
+    const std::string key = c.solver + "," + format(c.dt) + "," + std::to_string(c.refine) + "," +
+                            std::to_string(c.particles_per_cell) + "," + format(c.duration) + "," +
+                            format(c.E0);
+    Piles& piles = piles_[key];
+    if (multiplier == "2") piles.x2 = last;
+    if (multiplier == "4") piles.x4 = last;
+    if (multiplier != "8" || !piles.x2 || !piles.x4) return "";
+    return pileHeightsOrdered(*piles.x2, *piles.x4, last) ? "pass" : "fail";
+  }
+
+ private:
+  struct Piles {
+    std::optional<Snapshot> x2, x4;
+  };
+  std::map<std::string, Piles> piles_;
+};
+
 std::string csvField(std::string text) {
   for (char& ch : text)
     if (ch == ',' || ch == '\n' || ch == '"') ch = ';';
@@ -264,6 +312,7 @@ std::string csvField(std::string text) {
 int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string& build,
              const std::set<std::string>& done, std::ofstream& csv, int& skipped) {
   int measured = 0;
+  PileClaim pile_claim;
   for (const std::string& scene : sweep.scenes) {
     std::vector<Config> todo;
     for (const std::string& solver : sweep.solvers)
@@ -299,13 +348,18 @@ int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string&
     for (const Config& c : todo) {
       const Outcome run = simulate(options, c);
       std::string errors = ",,,,";
-      std::string past_tower = "";
+      std::string past_tower, pile_height, claim;
       std::string status = run.status;
       const bool usable = run.status == "finished" || run.status == "escaped";
       if (tower > 0 && usable) {
         const double past = ballPastTower(run.frames, tower);
         past_tower = format(past);
+        claim = past < 0 ? "pass" : "fail";  // the ball stays outside the tower (Fig. 2)
         if (past > 0 && status == "finished") status = "tunnelled";  // through the tower
+      }
+      if (usable) {
+        pile_height = format(pileHeight(run.frames.back()));
+        if (claim.empty()) claim = pile_claim.score(c, run.frames.back());
       }
       if (usable && sweep.errors) {
         const bool falls_freely = tower < 0 && base.dimension == 2;
@@ -317,7 +371,8 @@ int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string&
       }
       csv << keyOf(build, c) << "," << format(run.cell_size) << "," << status << ","
           << format(run.wall) << "," << run.steps << "," << run.particles << "," << errors
-          << past_tower << "," << csvField(run.message) << "\n";
+          << past_tower << "," << pile_height << "," << claim << "," << csvField(run.message)
+          << "\n";
       csv.flush();
       ++measured;
       std::fprintf(stderr, "study: %s %s dt %s E0 %s cell/%d ppc %d: %s, %.2f s\n", scene.c_str(),

@@ -15,7 +15,8 @@ trap 'rm -rf "$work"' EXIT
 
 # Columns: 1 build 2 scene 3 solver 4 dt 5 refine 6 ppc 7 duration 8 E0 9 cell_size 10 status
 # 11 wall_s 12 steps 13 particles 14 err_density 15 err_height_m 16 err_com_m 17 free_fall_err_m
-# 18 ball_past_tower_m 19 message. Only the latest build's rows are drawn.
+# 18 ball_past_tower_m 19 pile_height_m 20 claim 21 message. Only the latest build's rows are
+# drawn.
 latest() { awk -F, -v b="$(tail -n 1 "$1" | cut -d, -f1)" 'NR > 1 && $1 == b' "$1"; }
 latest "$csv" > "$work/rows"
 solvers="density_hybrid mpm_pic_flip mpm_apic mpm_mls mpm_apic_semi mpm_mls_semi"
@@ -40,6 +41,15 @@ awk -F, '$3 == "density_hybrid" && $2 == "snowball_drop" && $4 == 0.001 && $5 ==
   "$work/rows" | head -n 1 > "$work/table1.drop"
 awk -F, '$3 == "density_hybrid" && $2 == "column_thrown_ball" && $4 == 0.001 && $5 == 1 && $6 == 9 {print $11 / $7}' \
   "$work/rows" | head -n 1 > "$work/table1.ball"
+
+# The report's Fig. 6 claim: pile heights of critical density x2, x4, x8 against dt, 9 per cell.
+for x in 2 4 8; do
+  awk -F, -v s=critical_density_x$x '$2 == s && $6 == 9 && $19 != "" {print $4, $19 * 1000}' \
+    "$work/rows" | sort -g > "$work/pile.x$x"
+done
+awk -F, '$2 == "critical_density_x8" && $20 != "" {print $4, $20}' "$work/rows" | sort -g |
+  awk '{n[$1]++; if ($2 == "pass") p[$1]++} END {for (d in n) printf "%s %d %d\n", d, p[d], n[d]}' |
+  sort -g > "$work/pile.claim"
 
 plots=""
 series() {  # series EXT STYLE: a gnuplot plot list of the solvers that have rows
@@ -98,6 +108,14 @@ cd "$work"
     echo "plot \$table u 2:xtic(1) t 'report', '' u 3 t 'snowsim'"
     plots="$plots table1"
   fi
+  if [ -s pile.x8 ]; then
+    echo "set output '$out/pile_claim.png'"
+    echo 'set title "Report Fig. 6 claim: pile height at 0.5 s, critical density x2 > x4 > x8 (9 per cell)"'
+    echo 'unset logscale; set style fill empty; set logscale x; set xlabel "dt (s)"; set ylabel "pile height (mm, 90th percentile)"'
+    echo 'set style data linespoints; set key top right'
+    echo "plot 'pile.x2' u 1:2 pt 7 t 'x2', 'pile.x4' u 1:2 pt 7 t 'x4', 'pile.x8' u 1:2 pt 7 t 'x8'"
+    plots="$plots pile_claim"
+  fi
 } > charts.gp
 
 # The stability map: dt against Young's modulus, one panel per solver, each run marked by how
@@ -132,3 +150,5 @@ fi
 
 gnuplot charts.gp 2> gnuplot.log || { cat gnuplot.log >&2; exit 1; }
 echo "charts: wrote$plots in $out"
+[ -s pile.claim ] && awk '{printf "charts: Fig. 6 claim at dt %s: %d of %d particle counts pass\n", $1, $2, $3}' pile.claim
+true

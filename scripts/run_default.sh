@@ -6,4 +6,4 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 bash scripts/build.sh
 ./build/app/snowsim run scenes/snowball_drop.json -o out
-echo "snowsim: PNG and PLY frames and run.json written to $(pwd)/out"
+echo "snowsim: PNG and PLY frames, snowball_drop.mp4 and run.json written to $(pwd)/out"

@@ -67,12 +67,6 @@ struct Stencil {
     for (int a = 0; a < D; ++a) base[a] = Kernel::weights(x[a] * inv_h, w[a], dw[a]);
   }
 
-  // Offset of stencil node n (0 <= n < nodes) along axis a; axis 0 varies fastest.
-  static int offset(int n, int a) {
-    for (int k = 0; k < a; ++k) n /= support;
-    return n % support;
-  }
-
   // The weight and its gradient (eq. 6, in 1/m) at the node with per-axis offsets o.
   Real weightAt(const int (&o)[D]) const {
     Real r = 1;
@@ -88,23 +82,6 @@ struct Stencil {
       g[a] = r;
     }
     return g;
-  }
-
-  Real weight(int n) const {
-    int o[D];
-    for (int a = 0; a < D; ++a) o[a] = offset(n, a);
-    return weightAt(o);
-  }
-  Vec<D> gradient(int n, Real inv_h) const {
-    int o[D];
-    for (int a = 0; a < D; ++a) o[a] = offset(n, a);
-    return gradientAt(o, inv_h);
-  }
-
-  IVec<D> node(int n) const {
-    IVec<D> i;
-    for (int a = 0; a < D; ++a) i[a] = base[a] + offset(n, a);
-    return i;
   }
 };
 

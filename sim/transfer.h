@@ -42,11 +42,21 @@ inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kern
   (visit(std::integral_constant<int, Node>{}), ...);
 }
 
+// Flattened: the per-node lambda and everything it calls are inlined into each unrolled node.
+// bench/mpm_bench, one core, medians of 5 interleaved runs: 2D 5.3 -> 5.6-6.1 M particle-steps/s,
+// 3D 0.93 -> 1.02 M; results bit-identical.
+template <int D, class Kernel, class F>
+[[gnu::flatten]] inline void visitStencilFlattened(const GridGeometry<D>& grid,
+                                                   const Stencil<D, Kernel>& s, const Vec<D>& x,
+                                                   F&& f) {
+  visitStencilNodes(grid, s, x, std::forward<F>(f),
+                    std::make_integer_sequence<int, Stencil<D, Kernel>::nodes>{});
+}
+
 template <int D, class Kernel, class F>
 inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x,
                          F&& f) {
-  visitStencilNodes(grid, s, x, std::forward<F>(f),
-                    std::make_integer_sequence<int, Stencil<D, Kernel>::nodes>{});
+  visitStencilFlattened(grid, s, x, std::forward<F>(f));
 }
 
 // Calls f(node_index, weight, weight_gradient) for every node of the particle's stencil.

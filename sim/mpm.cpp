@@ -151,16 +151,17 @@ void MpmSolver<D>::rasterise(Real dt) {
   for (int n = 0; n < stale; ++n) fields_.clearNode(previously_active_.flatIndex(grid_, n));
   withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
   // Momentum to velocity; keep the rasterised velocity for the FLIP increment.
+  const bool flip = params_.transfer == MpmTransfer::PicFlip;
   forActiveNodes([&](int k) {
     const Real m = fields_.mass[k];
     fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
-    fields_.velocity_old[k] = fields_.velocity[k];
+    if (flip) fields_.velocity_old[k] = fields_.velocity[k];
   });
 }
 
 template <int D>
 template <class Kernel>
-void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
+void MpmSolver<D>::rasteriseWith(Real dt) {
   const Real h = grid_.h, inv_h = 1 / h;
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
@@ -175,30 +176,35 @@ void MpmSolver<D>::rasteriseWith(Real /*dt*/) {
         const Vec<D>& x = particles_.x[p];
         const Real m = particles_.mass[p];
         const Vec<D> mv = m * particles_.v[p];
-        const Mat<D> mC = m * C_[p];
         // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
         // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
         const Real V0 = particles_.volume[p];
         const Mat<D> stress =
             V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
                    : Mat<D>::Zero();
-        const Mat<D> stress_mls = D_inv * stress;
         const Stencil<D, Kernel> s(x, inv_h);
+        if (mls) {
+          // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
+          // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), mass and momentum
+          // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
+          const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
+          TensorStencil<D, Kernel>(grid_, s, x)
+              .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
+                fields_.mass[k] += w * m;
+                fields_.velocity[k] += w * momentum;
+              });
+          continue;
+        }
+        const Mat<D> mC = m * C_[p];
         visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
           const int k = node.index;
           const Real w = s.weightAt(node.offset);
           fields_.mass[k] += w * m;
-          // Momentum, eq. 1; APIC/MLS add the affine part m C (x_i - x_p) (Jiang et al. 2015).
+          // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
           Vec<D> momentum = mv;
           if (affine) momentum.noalias() += mC * node.dx;
           fields_.velocity[k] += w * momentum;
-          if (mls) {
-            Vec<D> force;
-            force.noalias() = stress_mls * node.dx;
-            fields_.force[k] += w * force;
-          } else {
-            fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
-          }
+          fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
         });
       }
     }
@@ -234,9 +240,13 @@ void MpmSolver<D>::computeParticleVolumes() {
 
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
+  // MLS rasterised dt f_i with the momentum: the force field stays zero and only gravity remains.
+  const bool force_rasterised = params_.transfer == MpmTransfer::Mls;
   forActiveNodes([&](int k) {
     const Real m = fields_.mass[k];
-    if (m > 0) fields_.velocity[k] += dt * (fields_.force[k] / m + gravity_);  // eq. 8, explicit
+    if (m <= 0) return;
+    fields_.velocity[k] += dt * gravity_;
+    if (!force_rasterised) fields_.velocity[k] += (dt / m) * fields_.force[k];  // eq. 8, explicit
   });
 }
 
@@ -287,30 +297,27 @@ void MpmSolver<D>::gatherWith() {
   for (int p = 0; p < n; ++p) {
     const Vec<D> x = particles_.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
+    if (transfer != MpmTransfer::PicFlip) {
+      // v_p = sum_i w v_i, B_p = sum_i w v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10),
+      // C_p = B_p D_p^-1, also grad v_p for MLS (Hu et al. 2018).
+      Mat<D> B;
+      particles_.v[p] =
+          TensorStencil<D, Kernel>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
+      C_[p] = D_inv * B;
+      continue;
+    }
     Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
-    Mat<D> B = Mat<D>::Zero();
+    Mat<D> grad_v = Mat<D>::Zero();
     visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
       const Real w = s.weightAt(node.offset);
       const Vec<D>& vi = fields_.velocity[node.index];
       v_pic += w * vi;
-      if (transfer == MpmTransfer::PicFlip) {
-        dv += w * (vi - fields_.velocity_old[node.index]);
-        // grad v_p = sum_i v_i grad w_ip^T (eq. 10)
-        B += vi * s.gradientAt(node.offset, inv_h).transpose();
-      } else {
-        // APIC B_p += w v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10), as a rank-one update:
-        // Eigen's expression form is not inlined here in 3D.
-        B.noalias() += (w * vi) * node.dx.transpose();
-      }
+      dv += w * (vi - fields_.velocity_old[node.index]);
+      grad_v += vi * s.gradientAt(node.offset, inv_h).transpose();  // grad v_p, eq. 10
     });
-    if (transfer == MpmTransfer::PicFlip) {
-      // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
-      particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
-      C_[p] = B;
-    } else {
-      particles_.v[p] = v_pic;
-      C_[p] = D_inv * B;  // C_p = B_p D_p^-1; also grad v_p for MLS (Hu et al. 2018)
-    }
+    // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
+    particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
+    C_[p] = grad_v;
   }
 }
 

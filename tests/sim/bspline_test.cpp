@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vector>
 
 #include "sim/bspline.h"
 #include "sim/transfer.h"
@@ -94,6 +95,71 @@ TEST(BSpline, StencilPartitionOfUnity3DQuadratic) {
 }
 TEST(BSpline, StencilPartitionOfUnity3DCubic) {
   checkStencil<3, CubicBSpline>();
+}
+
+// The tensor-product scatter and gather (TensorStencil) against the node-by-node definitions:
+// scatter gives each node w_ip and v + A (x_i - x_p); gather gives sum_i w_ip v_i and
+// sum_i w_ip v_i (x_i - x_p)^T, for a random grid field.
+template <int D, class Kernel>
+void checkTensorStencil() {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<Real> position(0.0, 0.1), value(-1.0, 1.0);
+  const Real h = 0.01;
+  const GridGeometry<D> grid(IVec<D>::Constant(10), h);
+  std::vector<Vec<D>> field(grid.nodeCount());
+  for (Vec<D>& f : field)
+    for (int a = 0; a < D; ++a) f[a] = value(rng);
+  for (int trial = 0; trial < 100; ++trial) {
+    Vec<D> x, v;
+    Mat<D> A;
+    for (int a = 0; a < D; ++a) {
+      x[a] = position(rng);
+      v[a] = value(rng);
+      for (int b = 0; b < D; ++b) A(a, b) = value(rng);
+    }
+    const Stencil<D, Kernel> s(x, 1 / h);
+    const TensorStencil<D, Kernel> tensor(grid, s, x);
+
+    std::vector<int> scattered_index;
+    std::vector<Real> scattered_weight;
+    std::vector<Vec<D>> scattered_value;
+    tensor.scatterAffine(v, A, [&](int k, Real w, const Vec<D>& value_i) {
+      scattered_index.push_back(k);
+      scattered_weight.push_back(w);
+      scattered_value.push_back(value_i);
+    });
+    ASSERT_EQ(static_cast<int>(scattered_index.size()), s.nodes);
+
+    Vec<D> sum = Vec<D>::Zero();
+    Mat<D> moment = Mat<D>::Zero();
+    int n = 0;
+    visitStencil(grid, s, x, [&](const StencilVisit<D>& node) {
+      const Real w = s.weightAt(node.offset);
+      EXPECT_EQ(scattered_index[n], node.index);
+      EXPECT_NEAR(scattered_weight[n], w, 1e-15);
+      EXPECT_LT((scattered_value[n] - (v + A * node.dx)).norm(), 1e-14);
+      sum += w * field[node.index];
+      moment += w * field[node.index] * node.dx.transpose();
+      ++n;
+    });
+    Mat<D> gathered_moment;
+    const Vec<D> gathered_sum = tensor.gatherAffine(field.data(), gathered_moment);
+    EXPECT_LT((gathered_sum - sum).norm(), 1e-14);
+    EXPECT_LT((gathered_moment - moment).norm(), 1e-16);  // moments scale with h ~ 1e-2
+  }
+}
+
+TEST(BSpline, TensorStencilMatchesNodeByNode2DQuadratic) {
+  checkTensorStencil<2, QuadraticBSpline>();
+}
+TEST(BSpline, TensorStencilMatchesNodeByNode2DCubic) {
+  checkTensorStencil<2, CubicBSpline>();
+}
+TEST(BSpline, TensorStencilMatchesNodeByNode3DQuadratic) {
+  checkTensorStencil<3, QuadraticBSpline>();
+}
+TEST(BSpline, TensorStencilMatchesNodeByNode3DCubic) {
+  checkTensorStencil<3, CubicBSpline>();
 }
 
 }  // namespace

@@ -39,6 +39,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   parallel_ = n >= parallel_min_particles;
   F_E_.assign(n, Mat<D>::Identity());
   R_E_.assign(n, Mat<D>::Identity());
+  V_E_.assign(n, Mat<D>::Identity());
   J_P_.assign(n, 1);
   lame_.resize(n);
   for (int p = 0; p < n; ++p) updateLame(p);
@@ -327,8 +328,8 @@ void MpmSolver<D>::updateDeformation(Real dt) {
 #pragma omp parallel for schedule(static) if (parallel_)
   for (int p = 0; p < n; ++p) {
     // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
-    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];                     // eq. 10, F_E^trial
-    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p], R_E_[p]);  // eqs. 11-12
+    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];  // eq. 10, F_E^trial
+    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p], R_E_[p], V_E_[p]);  // eq. 11-12
     updateLame(p);
   }
   if (params_.transfer == MpmTransfer::PicFlip) {

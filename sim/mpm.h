@@ -78,6 +78,7 @@ class MpmSolver final : public Solver<D> {
   Particles<D> particles_;
   std::vector<Mat<D>> F_E_;     // elastic deformation gradient
   std::vector<Mat<D>> R_E_;     // its polar rotation, from the last return mapping
+  std::vector<Mat<D>> V_E_;     // its right singular vectors: the next SVD's starting guess
   std::vector<Real> J_P_;       // det F_P, plastic volume ratio
   std::vector<Mat<D>> C_;       // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<Vec<D>> v_grid_;  // per particle: interpolated grid velocity (PIC part)

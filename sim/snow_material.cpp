@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
-
 namespace snowsim {
 
 Lame hardenedLame(const SnowMaterial& m, Real J_P) {
@@ -57,18 +55,67 @@ void svd2(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
   U = R * V;
 }
 
-// 3x3 SVD from the closed-form eigen-decomposition of F^T F (Eigen's computeDirect): V its
-// eigenvectors, then U by Gram-Schmidt on the columns of F V, which stays orthonormal when
-// singular values nearly coincide; the last singular value takes the sign of det F. Ten times
-// cheaper than Eigen::JacobiSVD, whose sweeps multiply on the deformed snow of an impact.
+// Diagonalises the symmetric 3x3 A by cyclic Jacobi rotations (Golub and Van Loan, section
+// 8.5), accumulating them into V: V^T A_in V = A_out. From a good guess (A nearly diagonal) one
+// or two sweeps finish it; from any start at most a handful. A rotation is skipped once its
+// off-diagonal entry no longer changes the diagonal (|a_pq| <= 1e-16 sqrt(a_pp a_qq) for the
+// positive semi-definite A here), which also ends the sweeps.
+void jacobiEigen3(Mat<3>& A, Mat<3>& V) {
+  constexpr int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  constexpr int max_sweeps = 12;  // round-off is reached in under ten from any start
+  for (int sweep = 0; sweep < max_sweeps; ++sweep) {
+    bool rotated = false;
+    for (const auto& [p, q] : pairs) {
+      const Real apq = A(p, q);
+      if (apq * apq <= Real(1e-32) * std::abs(A(p, p) * A(q, q))) continue;
+      rotated = true;
+      // The rotation that zeroes a_pq: tan of its angle t, the smaller root of
+      // t^2 + 2 theta t - 1 = 0 with theta = (a_qq - a_pp) / (2 a_pq).
+      const Real theta = (A(q, q) - A(p, p)) / (2 * apq);
+      const Real t =
+          std::abs(theta) > Real(1e150)
+              ? 1 / (2 * theta)
+              : std::copysign(Real(1), theta) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+      const Real c = 1 / std::sqrt(t * t + 1), s = t * c;
+      const int r = 3 - p - q;  // the third axis
+      const Real arp = A(r, p), arq = A(r, q);
+      A(p, p) -= t * apq;
+      A(q, q) += t * apq;
+      A(p, q) = A(q, p) = 0;
+      A(r, p) = A(p, r) = c * arp - s * arq;
+      A(r, q) = A(q, r) = s * arp + c * arq;
+      const Vec<3> vp = V.col(p), vq = V.col(q);
+      V.col(p) = c * vp - s * vq;
+      V.col(q) = s * vp + c * vq;
+    }
+    if (!rotated) return;
+  }
+}
+
+// 3x3 SVD from the eigenvectors of F^T F, found by Jacobi rotations starting from the guess V
+// (in/out): V the eigenvectors ordered by decreasing eigenvalue, re-orthonormalised so it stays a
+// rotation over many warm-started steps; then U by Gram-Schmidt on the columns of F V, which
+// stays orthonormal when singular values nearly coincide; the last singular value takes the
+// sign of det F.
 void svd3(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
-  Eigen::SelfAdjointEigenSolver<Mat<3>> eigen;
-  eigen.computeDirect(F.transpose() * F);
-  const Mat<3>& W = eigen.eigenvectors();  // ascending eigenvalues
-  V.col(0) = W.col(2);
-  V.col(1) = W.col(1);
-  V.col(2) = V.col(0).cross(V.col(1));  // a rotation
-  const Mat<3> FV = F * V;
+  Mat<3> FV = F * V;
+  Mat<3> A = FV.transpose() * FV;  // V^T F^T F V, nearly diagonal for a good guess
+  jacobiEigen3(A, V);
+  // Decreasing eigenvalues; a swap of two columns negates one so that V stays a rotation.
+  auto order = [&](int i, int j) {
+    if (A(i, i) >= A(j, j)) return;
+    std::swap(A(i, i), A(j, j));
+    const Vec<3> vi = V.col(i);
+    V.col(i) = V.col(j);
+    V.col(j) = -vi;
+  };
+  order(0, 1);
+  order(0, 2);
+  order(1, 2);
+  V.col(0).normalize();
+  V.col(1) = (V.col(1) - V.col(0).dot(V.col(1)) * V.col(0)).normalized();
+  V.col(2) = V.col(0).cross(V.col(1));
+  FV.noalias() = F * V;
   sigma[0] = FV.col(0).norm();
   if (sigma[0] == 0) {  // F = 0
     U.setIdentity();
@@ -98,6 +145,16 @@ void signedSvd<2>(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
 }
 template <>
 void signedSvd<3>(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
+  V.setIdentity();
+  svd3(F, U, sigma, V);
+}
+
+template <>
+void signedSvdFrom<2>(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
+  svd2(F, U, sigma, V);  // closed form: nothing to gain from a guess
+}
+template <>
+void signedSvdFrom<3>(const Mat<3>& F, Mat<3>& U, Vec<3>& sigma, Mat<3>& V) {
   svd3(F, U, sigma, V);
 }
 
@@ -109,7 +166,7 @@ template <>
 Mat<3> polarRotation<3>(const Mat<3>& F) {
   Mat<3> U, V;
   Vec<3> s;
-  svd3(F, U, s, V);
+  signedSvd<3>(F, U, s, V);
   return U * V.transpose();
 }
 
@@ -150,10 +207,11 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P) {
 }
 
 template <int D>
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E) {
-  Mat<D> U, V;
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E, Mat<D>& V_E) {
+  Mat<D> U;
+  Mat<D>& V = V_E;
   Vec<D> sigma;
-  signedSvd<D>(F_E, U, sigma, V);
+  signedSvdFrom<D>(F_E, U, sigma, V);
   Real J_trial = 1, J_clamped = 1;
   for (int a = 0; a < D; ++a) {
     J_trial *= sigma[a];
@@ -172,7 +230,7 @@ template Mat<2> fixedCorotatedKirchhoff<2>(const Mat<2>&, const Mat<2>&, const L
 template Mat<3> fixedCorotatedKirchhoff<3>(const Mat<3>&, const Mat<3>&, const Lame&);
 template Real plasticReturnMapping<2>(const SnowMaterial&, Mat<2>&, Mat<2>&);
 template Real plasticReturnMapping<3>(const SnowMaterial&, Mat<3>&, Mat<3>&);
-template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real, Mat<2>&);
-template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real, Mat<3>&);
+template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real, Mat<2>&, Mat<2>&);
+template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real, Mat<3>&, Mat<3>&);
 
 }  // namespace snowsim

@@ -37,6 +37,11 @@ Mat<D> polarRotation(const Mat<D>& F);
 // determinant of F shows up as a negative last singular value.
 template <int D>
 void signedSvd(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
+// Same, with V on entry a guess of the result (a rotation, e.g. the last step's V): F^T F in that
+// basis is nearly diagonal, so the 3x3 solve needs a few Jacobi rotations instead of a full
+// eigen-decomposition. The result is the same to round-off whatever the guess.
+template <int D>
+void signedSvdFrom(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
 
 // Fixed-corotated first Piola-Kirchhoff stress (paper eq. 6 differentiated):
 // P = dPsi/dF_E = 2 mu (F_E - R_E) + lambda (J_E - 1) J_E F_E^{-T}.
@@ -57,9 +62,10 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
 
 // Same, tracking only J_P (what the model needs: hardening depends on J_P alone). Returns new J_P
 // and sets R_E to the polar rotation U V^T of the new F_E, which the next stress evaluation
-// needs: one SVD per particle per step instead of two.
+// needs: one SVD per particle per step instead of two. V_E holds the right singular vectors of
+// F_E: on entry the last step's (the SVD's starting guess), on return the new ones.
 template <int D>
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E);
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E, Mat<D>& V_E);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 inline Real pWaveSpeed(const Lame& lame, Real rho) {

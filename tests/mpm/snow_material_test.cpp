@@ -74,8 +74,8 @@ TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
   }
   EXPECT_LT((F_E * F_P - F).norm(), 1e-12);
   EXPECT_NEAR(J_P, F_P.determinant(), 1e-12);
-  Mat<3> F_E2 = F, R_E;
-  EXPECT_NEAR(plasticReturnMappingJ<3>(m, F_E2, 1.0, R_E), J_P, 1e-12);
+  Mat<3> F_E2 = F, R_E, V_E = Mat<3>::Identity();
+  EXPECT_NEAR(plasticReturnMappingJ<3>(m, F_E2, 1.0, R_E, V_E), J_P, 1e-12);
   EXPECT_LT((R_E - polarRotation<3>(F_E2)).norm(), 1e-12) << "the rotation of the new F_E";
   EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
 }
@@ -101,10 +101,7 @@ TEST(SnowMaterial, ThreeByThreeSvdReconstructs) {
   }
   cases.push_back(Vec<3>(1, 2, 3) * Vec<3>(0.5, -1, 2).transpose());  // rank one
   cases.push_back(Mat<3>::Identity());
-  for (const Mat<3>& F : cases) {
-    Mat<3> U, V;
-    Vec<3> s;
-    signedSvd<3>(F, U, s, V);
+  auto check = [](const Mat<3>& F, const Mat<3>& U, const Vec<3>& s, const Mat<3>& V) {
     const double scale = std::max(1.0, F.norm());
     EXPECT_LT((U * s.asDiagonal() * V.transpose() - F).norm(), 1e-12 * scale) << F;
     EXPECT_LT((U.transpose() * U - Mat<3>::Identity()).norm(), 1e-12) << F;
@@ -113,5 +110,36 @@ TEST(SnowMaterial, ThreeByThreeSvdReconstructs) {
     EXPECT_NEAR(V.determinant(), 1, 1e-12);
     const Vec<3> reference = Eigen::JacobiSVD<Mat<3>>(F).singularValues();
     EXPECT_LT((s.cwiseAbs() - reference).norm(), 1e-10 * scale) << F;
+  };
+  for (const Mat<3>& F : cases) {
+    Mat<3> U, V;
+    Vec<3> s;
+    signedSvd<3>(F, U, s, V);
+    check(F, U, s, V);
+    // Warm started from an unrelated rotation: the same decomposition.
+    const Eigen::Quaterniond q(noise(random), noise(random), noise(random), noise(random));
+    Mat<3> V_guess = q.normalized().toRotationMatrix();
+    signedSvdFrom<3>(F, U, s, V_guess);
+    check(F, U, s, V_guess);
   }
+}
+
+// As the solver uses it: the guess is the last step's V, F changes by (I + dt grad v) each step.
+// Over many steps V stays a rotation and the SVD stays exact.
+TEST(SnowMaterial, WarmStartedSvdStaysExactOverManySteps) {
+  std::mt19937 random(3);
+  std::normal_distribution<double> noise(0, 1);
+  Mat<3> F = Mat<3>::Identity(), V = Mat<3>::Identity(), U;
+  Vec<3> s;
+  for (int step = 0; step < 20000; ++step) {
+    Mat<3> grad_v;
+    for (int i = 0; i < 9; ++i) grad_v(i / 3, i % 3) = 1e-3 * noise(random);
+    F = (Mat<3>::Identity() + grad_v) * F;
+    F /= std::cbrt(F.determinant());  // keep it bounded: a shear that wanders
+    signedSvdFrom<3>(F, U, s, V);
+  }
+  EXPECT_LT((U * s.asDiagonal() * V.transpose() - F).norm(), 1e-12 * F.norm());
+  EXPECT_LT((V.transpose() * V - Mat<3>::Identity()).norm(), 1e-13);
+  EXPECT_NEAR(V.determinant(), 1, 1e-13);
+  EXPECT_LT((s - Eigen::JacobiSVD<Mat<3>>(F).singularValues()).norm(), 1e-12 * F.norm());
 }

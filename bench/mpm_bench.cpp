@@ -1,12 +1,13 @@
 // Speed of MPM snow: particle-steps per second (median of repetitions), 2D and 3D explicit MLS with
 // quadratic weights, 1 and 2 threads (and whether they agree bit for bit), bytes per particle.
-// Usage: mpm_bench [steps=100] [repetitions=5]
+// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d]
 #include <omp.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "sim/json_fields.h"
@@ -70,7 +71,16 @@ void measure(const char* label, const Json& j, int steps, int reps) {
 int main(int argc, char** argv) {
   const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
   const int reps = argc > 2 ? std::atoi(argv[2]) : 5;
-  measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44), steps, reps);
-  measure<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6), steps, reps);
-  measure<3>("3D MLS quadratic", sceneJson(3, 32, 0.5), steps, reps);
+  const std::string only = argc > 3 ? argv[3] : "all";
+  if (only != "all" && only != "2d-small" && only != "2d-large" && only != "3d") {
+    std::fprintf(stderr, "mpm_bench: case '%s' is not one of all, 2d-small, 2d-large, 3d\n",
+                 only.c_str());
+    return 2;
+  }
+  if (only == "all" || only == "2d-small")
+    measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44), steps, reps);
+  if (only == "all" || only == "2d-large")
+    measure<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6), steps, reps);
+  if (only == "all" || only == "3d")
+    measure<3>("3D MLS quadratic", sceneJson(3, 32, 0.5), steps, reps);
 }

@@ -28,31 +28,46 @@ Mat<2> polar2(const Mat<2>& F) {
   return R;
 }
 
+// The rotation by phi from (cos 2phi, sin 2phi), phi in (-pi/2, pi/2]: the half-angle formulas
+// without trigonometric calls, taking the square root on the side where it is well conditioned.
+Mat<2> halfAngleRotation(Real cos2, Real sin2) {
+  Real c, s;
+  if (cos2 >= 0) {
+    c = std::sqrt(Real(0.5) * (1 + cos2));
+    s = sin2 / (2 * c);
+  } else {
+    s = std::copysign(std::sqrt(Real(0.5) * (1 - cos2)), sin2);
+    c = sin2 / (2 * s);
+  }
+  Mat<2> V;
+  V << c, -s, s, c;
+  return V;
+}
+
+// F = R S in 2D: the polar rotation R and the symmetric S = [mean + half, b; b, mean - half],
+// whose eigenvalues (the signed singular values of F) are mean +- rad.
+struct Polar2 {
+  Mat<2> R;
+  Real mean, half, b, rad;
+};
+Polar2 polarParts2(const Mat<2>& F) {
+  Polar2 p;
+  p.R = polar2(F);
+  const Mat<2> S = p.R.transpose() * F;  // symmetric
+  p.mean = Real(0.5) * (S(0, 0) + S(1, 1));
+  p.half = Real(0.5) * (S(0, 0) - S(1, 1));
+  p.b = Real(0.5) * (S(0, 1) + S(1, 0));
+  p.rad = std::sqrt(p.half * p.half + p.b * p.b);
+  return p;
+}
+
 // 2x2 SVD in closed form: F = R S (polar), then S = W diag(sigma) W^T (symmetric eigenproblem),
 // so U = R W, V = W.
 void svd2(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
-  const Mat<2> R = polar2(F);
-  const Mat<2> S = R.transpose() * F;  // symmetric
-  const Real a = S(0, 0), b = Real(0.5) * (S(0, 1) + S(1, 0)), d = S(1, 1);
-  const Real mean = Real(0.5) * (a + d), half = Real(0.5) * (a - d);
-  const Real rad = std::sqrt(half * half + b * b);
-  sigma << mean + rad, mean - rad;
-  // Eigenvector of the larger eigenvalue at angle phi, (cos 2phi, sin 2phi) = (half, b) / rad;
-  // the half-angle formulas give cos phi and sin phi without trigonometric calls, taking the
-  // square root on the side where it is well conditioned.
-  Real c = 1, s = 0;
-  if (rad > 0) {
-    const Real cos2 = half / rad, sin2 = b / rad;
-    if (cos2 >= 0) {
-      c = std::sqrt(Real(0.5) * (1 + cos2));
-      s = sin2 / (2 * c);
-    } else {
-      s = std::copysign(std::sqrt(Real(0.5) * (1 - cos2)), sin2);
-      c = sin2 / (2 * s);
-    }
-  }
-  V << c, -s, s, c;
-  U = R * V;
+  const Polar2 p = polarParts2(F);
+  sigma << p.mean + p.rad, p.mean - p.rad;
+  V = p.rad > 0 ? halfAngleRotation(p.half / p.rad, p.b / p.rad) : Mat<2>::Identity();
+  U = p.R * V;
 }
 
 // Diagonalises the symmetric 3x3 A by cyclic Jacobi rotations (Golub and Van Loan, section
@@ -206,22 +221,50 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P) {
   return F_P.determinant();
 }
 
-template <int D>
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<D>& F_E, Real J_P, Mat<D>& R_E, Mat<D>& V_E) {
-  Mat<D> U;
-  Mat<D>& V = V_E;
-  Vec<D> sigma;
-  signedSvdFrom<D>(F_E, U, sigma, V);
+template <>
+Real plasticReturnMappingJ<2>(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E,
+                              Mat<2>& V_E) {
+  // Through the polar decomposition F_E = R S, S = V diag(sigma) V^T, as svd2 does, but the
+  // clamped F_E = R V diag(sigma') V^T is built from S's eigen-decomposition without V's half
+  // angle: V diag(d) V^T = mean(d) I + (d_0 - d_1)/2 [cos 2phi, sin 2phi; sin 2phi, -cos 2phi].
+  // The same numbers as the SVD, with fewer square roots and divisions on the critical path.
+  const Polar2 p = polarParts2(F_E);
+  const Real lo = 1 - m.theta_c, hi = 1 + m.theta_s;
+  const Real s0 = p.mean + p.rad, s1 = p.mean - p.rad;
+  const Real c0 = std::clamp(s0, lo, hi), c1 = std::clamp(s1, lo, hi);  // eq. 11
+  Mat<2> S_clamped = Real(0.5) * (c0 + c1) * Mat<2>::Identity();
+  Real cos2 = 1, sin2 = 0;  // (cos 2phi, sin 2phi) of the larger eigenvector
+  if (p.rad > 0) {
+    cos2 = p.half / p.rad;
+    sin2 = p.b / p.rad;
+    const Real k = Real(0.5) * (c0 - c1);
+    S_clamped(0, 0) += k * cos2;
+    S_clamped(1, 1) -= k * cos2;
+    S_clamped(0, 1) = S_clamped(1, 0) = k * sin2;
+  }
+  R_E = p.R;  // clamping changes S only: the rotation of the new F_E
+  F_E = R_E * S_clamped;
+  V_E = halfAngleRotation(cos2, sin2);
+  // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
+  return J_P * (s0 * s1) / (c0 * c1);
+}
+
+template <>
+Real plasticReturnMappingJ<3>(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E,
+                              Mat<3>& V_E) {
+  Mat<3> U;
+  Mat<3>& V = V_E;
+  Vec<3> sigma;
+  signedSvdFrom<3>(F_E, U, sigma, V);
   Real J_trial = 1, J_clamped = 1;
-  for (int a = 0; a < D; ++a) {
+  for (int a = 0; a < 3; ++a) {
     J_trial *= sigma[a];
     sigma[a] = std::clamp(sigma[a], 1 - m.theta_c, 1 + m.theta_s);  // eq. 11
     J_clamped *= sigma[a];
   }
   F_E = U * sigma.asDiagonal() * V.transpose();
   R_E = U * V.transpose();
-  // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
-  return J_P * J_trial / J_clamped;
+  return J_P * J_trial / J_clamped;  // as in 2D
 }
 
 template Mat<2> fixedCorotatedPiola<2>(const Mat<2>&, const Lame&);
@@ -230,7 +273,5 @@ template Mat<2> fixedCorotatedKirchhoff<2>(const Mat<2>&, const Mat<2>&, const L
 template Mat<3> fixedCorotatedKirchhoff<3>(const Mat<3>&, const Mat<3>&, const Lame&);
 template Real plasticReturnMapping<2>(const SnowMaterial&, Mat<2>&, Mat<2>&);
 template Real plasticReturnMapping<3>(const SnowMaterial&, Mat<3>&, Mat<3>&);
-template Real plasticReturnMappingJ<2>(const SnowMaterial&, Mat<2>&, Real, Mat<2>&, Mat<2>&);
-template Real plasticReturnMappingJ<3>(const SnowMaterial&, Mat<3>&, Real, Mat<3>&, Mat<3>&);
 
 }  // namespace snowsim

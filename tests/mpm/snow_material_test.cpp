@@ -80,6 +80,40 @@ TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
   EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
 }
 
+// The 2D return mapping works through the polar decomposition instead of the SVD: it must give
+// what the SVD definition gives (clamp U sigma V^T, J_P' = J_P det F_E / det F_E'), including
+// inverted and unstrained F.
+TEST(SnowMaterial, TwoDimensionalReturnMappingMatchesTheSvdDefinition) {
+  const SnowMaterial m;
+  std::mt19937 random(5);
+  std::normal_distribution<double> noise(0, 1);
+  std::vector<Mat<2>> cases = {Mat<2>::Identity(), Mat<2>::Identity() * 0.9,
+                               Mat<2>(Eigen::Rotation2Dd(0.7)) * Vec<2>(1.2, 0.95).asDiagonal()};
+  for (int k = 0; k < 300; ++k) {
+    Mat<2> F = Eigen::Rotation2Dd(3 * noise(random)).toRotationMatrix();
+    F += (k % 3 == 0 ? 0.5 : 0.03) * Mat<2>::Random();
+    cases.push_back(F);
+  }
+  Mat<2> inverted;
+  inverted << 1, 0, 0, -0.5;
+  cases.push_back(inverted);
+  for (const Mat<2>& F : cases) {
+    Mat<2> U, V;
+    Vec<2> sigma;
+    signedSvd<2>(F, U, sigma, V);
+    const Vec<2> clamped = sigma.cwiseMax(1 - m.theta_c).cwiseMin(1 + m.theta_s);
+    const Mat<2> expected_F_E = U * clamped.asDiagonal() * V.transpose();
+    const Real expected_J_P = 0.8 * F.determinant() / expected_F_E.determinant();
+
+    Mat<2> F_E = F, R_E, V_E;
+    const Real J_P = plasticReturnMappingJ<2>(m, F_E, 0.8, R_E, V_E);
+    EXPECT_LT((F_E - expected_F_E).norm(), 1e-13) << F;
+    EXPECT_NEAR(J_P, expected_J_P, 1e-13) << F;
+    EXPECT_LT((R_E - U * V.transpose()).norm(), 1e-13) << F;
+    EXPECT_LT((V_E - V).norm(), 1e-13) << F;
+  }
+}
+
 // The 3x3 SVD on what snow meets: near rotations (nearly equal singular values), stretches,
 // reflections and a rank-one matrix. U and V are rotations, the product rebuilds F, and the
 // singular values match Eigen's JacobiSVD up to the sign of the last.

@@ -39,13 +39,14 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   parallel_ = n >= parallel_min_particles;
   F_E_.assign(n, Mat<D>::Identity());
   R_E_.assign(n, Mat<D>::Identity());
-  V_E_.assign(n, Mat<D>::Identity());
+  if constexpr (D == 3) V_E_.assign(n, Mat<D>::Identity());
   J_P_.assign(n, 1);
   lame_.resize(n);
   for (int p = 0; p < n; ++p) updateLame(p);
   C_.assign(n, Mat<D>::Zero());
   v_grid_.assign(n, Vec<D>::Zero());
   order_.resize(n);
+  energy_chunks_.resize((n + energy_chunk - 1) / energy_chunk);
   particle_block_.resize(n);
   int block_count = 1;
   for (int a = 0; a < D; ++a) {
@@ -90,15 +91,12 @@ void MpmSolver<D>::step(Real dt) {
   if (params_.integrator == MpmIntegrator::SemiImplicit)
     solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
   else
-    collideGrid();        // 5: grid collisions
-  transferToParticles();  // 8 (gathered first, used by 7): particle velocities, grad v
-  updateDeformation(dt);  // 7: F_E, plasticity
-  collideParticles();     // 9
-  advect(dt);             // 10
+    collideGrid();      // 5: grid collisions
+  updateParticles(dt);  // 8, 7, 9, 10: velocities, F_E and plasticity, collisions, positions
   for (Collider<D>& c : colliders_) c.advance(dt);
   ++steps_;
   time_ += dt;
-  measureSpeeds();
+  measureEnergy();
   checkBlowUp(dt);
 }
 
@@ -282,82 +280,93 @@ void MpmSolver<D>::collideGrid() {
 }
 
 template <int D>
-void MpmSolver<D>::transferToParticles() {
-  withKernel(params_.kernel, [&]<class Kernel>() { gatherWith<Kernel>(); });
+void MpmSolver<D>::updateParticles(Real dt) {
+  withKernel(params_.kernel, [&]<class Kernel>() { updateParticlesWith<Kernel>(dt); });
 }
 
 template <int D>
 template <class Kernel>
-void MpmSolver<D>::gatherWith() {
-  const Real h = grid_.h, inv_h = 1 / h;
-  const Real D_inv = inertiaInverse<Kernel>(h);
-  const MpmTransfer transfer = params_.transfer;
+void MpmSolver<D>::updateParticlesWith(Real dt) {
+  // One pass: each particle's arrays are loaded once for the four stages, not once per stage.
+  Real speed = 0, signal = 0;
+  bool finite = true;
+  const int n = particles_.size();
+#pragma omp parallel for schedule(static) if (parallel_) reduction(max : speed, signal) \
+    reduction(&& : finite)
+  for (int p = 0; p < n; ++p) {
+    gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
+    updateDeformation(p, dt);   // 7
+    collideParticle(p);         // 9
+    advect(p, dt);              // 10
+    measureSpeed(p, speed, signal, finite);
+  }
+  fastest_speed_ = speed;
+  fastest_signal_ = signal;
+  finite_ = finite;
+}
+
+template <int D>
+template <class Kernel>
+void MpmSolver<D>::gatherVelocity(int p) {
+  const Real inv_h = 1 / grid_.h;
+  const Vec<D> x = particles_.x[p];
+  const Stencil<D, Kernel> s(x, inv_h);
+  if (params_.transfer != MpmTransfer::PicFlip) {
+    // v_p = sum_i w v_i, B_p = sum_i w v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10),
+    // C_p = B_p D_p^-1, also grad v_p for MLS (Hu et al. 2018).
+    Mat<D> B;
+    particles_.v[p] =
+        TensorStencil<D, Kernel>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
+    C_[p] = inertiaInverse<Kernel>(grid_.h) * B;
+    return;
+  }
+  Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
+  Mat<D> grad_v = Mat<D>::Zero();
+  visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+    const Real w = s.weightAt(node.offset);
+    const Vec<D>& vi = fields_.velocity[node.index];
+    v_pic += w * vi;
+    dv += w * (vi - fields_.velocity_old[node.index]);
+    grad_v += vi * s.gradientAt(node.offset, inv_h).transpose();  // grad v_p, eq. 10
+  });
+  // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
   const Real alpha = params_.flip_alpha;
-  const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int p = 0; p < n; ++p) {
-    const Vec<D> x = particles_.x[p];
-    const Stencil<D, Kernel> s(x, inv_h);
-    if (transfer != MpmTransfer::PicFlip) {
-      // v_p = sum_i w v_i, B_p = sum_i w v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10),
-      // C_p = B_p D_p^-1, also grad v_p for MLS (Hu et al. 2018).
-      Mat<D> B;
-      particles_.v[p] =
-          TensorStencil<D, Kernel>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
-      C_[p] = D_inv * B;
-      continue;
-    }
-    Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
-    Mat<D> grad_v = Mat<D>::Zero();
-    visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
-      const Real w = s.weightAt(node.offset);
-      const Vec<D>& vi = fields_.velocity[node.index];
-      v_pic += w * vi;
-      dv += w * (vi - fields_.velocity_old[node.index]);
-      grad_v += vi * s.gradientAt(node.offset, inv_h).transpose();  // grad v_p, eq. 10
-    });
-    // v_p = (1 - alpha) v_PIC + alpha v_FLIP (paper section 4 step 8).
-    particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
-    C_[p] = grad_v;
-  }
+  particles_.v[p] = (1 - alpha) * v_pic + alpha * (particles_.v[p] + dv);
+  C_[p] = grad_v;
 }
 
 template <int D>
-void MpmSolver<D>::updateDeformation(Real dt) {
-  const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int p = 0; p < n; ++p) {
-    // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
-    F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];  // eq. 10, F_E^trial
-    J_P_[p] = plasticReturnMappingJ<D>(material_, F_E_[p], J_P_[p], R_E_[p], V_E_[p]);  // eq. 11-12
-    updateLame(p);
-  }
-  if (params_.transfer == MpmTransfer::PicFlip) {
-    // PIC/FLIP keeps no affine velocity: C_ must not feed the next rasterisation.
-#pragma omp parallel for schedule(static) if (parallel_)
-    for (int p = 0; p < n; ++p) C_[p].setZero();
-  }
+void MpmSolver<D>::updateDeformation(int p, Real dt) {
+  // For PIC/FLIP C_ holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
+  F_E_[p] = (Mat<D>::Identity() + dt * C_[p]) * F_E_[p];  // eq. 10, F_E^trial
+  if constexpr (D == 2)
+    J_P_[p] = plasticReturnMappingJ(material_, F_E_[p], J_P_[p], R_E_[p]);  // eqs. 11-12
+  else
+    J_P_[p] = plasticReturnMappingJ(material_, F_E_[p], J_P_[p], R_E_[p], V_E_[p]);
+  updateLame(p);
+  // PIC/FLIP keeps no affine velocity: C_ must not feed the next rasterisation.
+  if (params_.transfer == MpmTransfer::PicFlip) C_[p].setZero();
 }
 
 template <int D>
-void MpmSolver<D>::collideParticles() {
-  const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int p = 0; p < n; ++p)
-    for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
+void MpmSolver<D>::collideParticle(int p) {
+  for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
 }
 
 template <int D>
-void MpmSolver<D>::advect(Real dt) {
-  const int n = particles_.size();
-  const Vec<D> extent = grid_.extent();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int p = 0; p < n; ++p) {
-    Vec<D>& x = particles_.x[p];
-    x += dt * particles_.v[p];
-    for (const Collider<D>& c : colliders_) c.pushOut(x);
-    x = x.cwiseMax(Vec<D>::Zero()).cwiseMin(extent);  // never leave the domain
-  }
+void MpmSolver<D>::advect(int p, Real dt) {
+  Vec<D>& x = particles_.x[p];
+  x += dt * particles_.v[p];
+  for (const Collider<D>& c : colliders_) c.pushOut(x);
+  x = x.cwiseMax(Vec<D>::Zero()).cwiseMin(grid_.extent());  // never leave the domain
+}
+
+template <int D>
+void MpmSolver<D>::measureSpeed(int p, Real& speed, Real& signal, bool& finite) const {
+  const Real v = particles_.v[p].norm();
+  finite = finite && std::isfinite(v) && particles_.x[p].allFinite();
+  speed = std::max(speed, v);
+  signal = std::max(signal, pWaveSpeed(lame_[p], particles_.density[p]) + v);
 }
 
 template <int D>
@@ -367,21 +376,30 @@ void MpmSolver<D>::measureSpeeds() {
   const int n = particles_.size();
 #pragma omp parallel for schedule(static) if (parallel_) reduction(max : speed, signal) \
     reduction(&& : finite)
-  for (int p = 0; p < n; ++p) {
-    const Real v = particles_.v[p].norm();
-    finite = finite && std::isfinite(v) && particles_.x[p].allFinite();
-    speed = std::max(speed, v);
-    signal = std::max(signal, pWaveSpeed(lame_[p], particles_.density[p]) + v);
-  }
+  for (int p = 0; p < n; ++p) measureSpeed(p, speed, signal, finite);
   fastest_speed_ = speed;
   fastest_signal_ = signal;
   finite_ = finite;
+  measureEnergy();
+}
+
+template <int D>
+void MpmSolver<D>::measureEnergy() {
   // Kinetic plus gravitational energy, the latter from the domain's lowest point along gravity so
-  // it is >= 0. Summed in particle order on one thread: the same on any thread count.
+  // it is >= 0. Summed in fixed chunks of particles, then the chunks in order: the same sum on any
+  // thread count.
+  const int n = particles_.size();
+  const int chunks = static_cast<int>(energy_chunks_.size());
+#pragma omp parallel for schedule(static) if (parallel_)
+  for (int c = 0; c < chunks; ++c) {
+    Real sum = 0;
+    for (int p = c * energy_chunk; p < std::min(n, (c + 1) * energy_chunk); ++p)
+      sum += particles_.mass[p] *
+             (Real(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
+    energy_chunks_[c] = sum;
+  }
   Real energy = 0;
-  for (int p = 0; p < n; ++p)
-    energy +=
-        particles_.mass[p] * (0.5 * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
+  for (const Real sum : energy_chunks_) energy += sum;
   Real lowest = 0;  // min over the domain box of -g.x, times the mass
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
   energy_ = energy - total_mass_ * lowest;

@@ -52,23 +52,28 @@ class MpmSolver final : public Solver<D> {
   void computeParticleVolumes();       // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
   void updateGridVelocities(Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
   void solveImplicitVelocities(
-      Real dt);                     // 5 + 6. collide v*, then (I + beta dt^2 M^-1 d2Phi) v = v*
-  void collideGrid();               // 5. grid-based body collisions (section 8)
-  void updateDeformation(Real dt);  // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
-  void transferToParticles();       // 8. v_p by PIC/FLIP, APIC or MLS
-  void collideParticles();          // 9. particle-based body collisions (section 8)
-  void advect(Real dt);             // 10. x += dt v, kept out of colliders and in the domain
+      Real dt);                   // 5 + 6. collide v*, then (I + beta dt^2 M^-1 d2Phi) v = v*
+  void collideGrid();             // 5. grid-based body collisions (section 8)
+  void updateParticles(Real dt);  // 8, 7, 9, 10 below, in one pass over the particles
 
  private:
+  template <class Kernel>
+  void updateParticlesWith(Real dt);
+  template <class Kernel>
+  void gatherVelocity(int p);              // 8. v_p by PIC/FLIP, APIC or MLS, and grad v_p
+  void updateDeformation(int p, Real dt);  // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
+  void collideParticle(int p);             // 9. particle-based body collisions (section 8)
+  void advect(int p, Real dt);             // 10. x += dt v, kept out of colliders and in the domain
+
   void binParticles();
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
   template <class Kernel>
   void rasteriseWith(Real dt);
-  template <class Kernel>
-  void gatherWith();
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
-  void measureSpeeds();
+  void measureSpeed(int p, Real& speed, Real& signal, bool& finite) const;
+  void measureSpeeds();  // speeds (as updateParticles measures them) and energy
+  void measureEnergy();
   void checkBlowUp(Real dt) const;
 
   MpmParams params_;
@@ -78,7 +83,7 @@ class MpmSolver final : public Solver<D> {
   Particles<D> particles_;
   std::vector<Mat<D>> F_E_;     // elastic deformation gradient
   std::vector<Mat<D>> R_E_;     // its polar rotation, from the last return mapping
-  std::vector<Mat<D>> V_E_;     // its right singular vectors: the next SVD's starting guess
+  std::vector<Mat<D>> V_E_;     // 3D: its right singular vectors, the next SVD's starting guess
   std::vector<Real> J_P_;       // det F_P, plastic volume ratio
   std::vector<Mat<D>> C_;       // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<Vec<D>> v_grid_;  // per particle: interpolated grid velocity (PIC part)
@@ -105,7 +110,9 @@ class MpmSolver final : public Solver<D> {
   Real fastest_speed_ = 0;   // max |v_p|
   Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
   bool finite_ = true;       // every position and velocity finite
-  Real energy_ = 0;          // kinetic + gravitational (J), see measureSpeeds
+  Real energy_ = 0;          // kinetic + gravitational (J), see measureEnergy
+  static constexpr int energy_chunk = 4096;
+  std::vector<Real> energy_chunks_;  // partial sums, for a thread-count independent total
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
   bool colliders_move_ = false;  // a moving collider adds energy: no energy check then

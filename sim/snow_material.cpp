@@ -44,30 +44,17 @@ Mat<2> halfAngleRotation(Real cos2, Real sin2) {
   return V;
 }
 
-// F = R S in 2D: the polar rotation R and the symmetric S = [mean + half, b; b, mean - half],
-// whose eigenvalues (the signed singular values of F) are mean +- rad.
-struct Polar2 {
-  Mat<2> R;
-  Real mean, half, b, rad;
-};
-Polar2 polarParts2(const Mat<2>& F) {
-  Polar2 p;
-  p.R = polar2(F);
-  const Mat<2> S = p.R.transpose() * F;  // symmetric
-  p.mean = Real(0.5) * (S(0, 0) + S(1, 1));
-  p.half = Real(0.5) * (S(0, 0) - S(1, 1));
-  p.b = Real(0.5) * (S(0, 1) + S(1, 0));
-  p.rad = std::sqrt(p.half * p.half + p.b * p.b);
-  return p;
-}
-
 // 2x2 SVD in closed form: F = R S (polar), then S = W diag(sigma) W^T (symmetric eigenproblem),
 // so U = R W, V = W.
 void svd2(const Mat<2>& F, Mat<2>& U, Vec<2>& sigma, Mat<2>& V) {
-  const Polar2 p = polarParts2(F);
-  sigma << p.mean + p.rad, p.mean - p.rad;
-  V = p.rad > 0 ? halfAngleRotation(p.half / p.rad, p.b / p.rad) : Mat<2>::Identity();
-  U = p.R * V;
+  const Mat<2> R = polar2(F);
+  const Mat<2> S = R.transpose() * F;  // symmetric
+  const Real a = S(0, 0), b = Real(0.5) * (S(0, 1) + S(1, 0)), d = S(1, 1);
+  const Real mean = Real(0.5) * (a + d), half = Real(0.5) * (a - d);
+  const Real rad = std::sqrt(half * half + b * b);
+  sigma << mean + rad, mean - rad;
+  V = rad > 0 ? halfAngleRotation(half / rad, b / rad) : Mat<2>::Identity();
+  U = R * V;
 }
 
 // Diagonalises the symmetric 3x3 A by cyclic Jacobi rotations (Golub and Van Loan, section
@@ -221,37 +208,38 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P) {
   return F_P.determinant();
 }
 
-template <>
-Real plasticReturnMappingJ<2>(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E,
-                              Mat<2>& V_E) {
-  // Through the polar decomposition F_E = R S, S = V diag(sigma) V^T, as svd2 does, but the
-  // clamped F_E = R V diag(sigma') V^T is built from S's eigen-decomposition without V's half
-  // angle: V diag(d) V^T = mean(d) I + (d_0 - d_1)/2 [cos 2phi, sin 2phi; sin 2phi, -cos 2phi].
-  // The same numbers as the SVD, with fewer square roots and divisions on the critical path.
-  const Polar2 p = polarParts2(F_E);
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E) {
+  // F = [a b; c d] splits into a scaled rotation and a symmetric traceless part,
+  // F = (r/2) R + A with r = |(a + d, c - b)|, R its rotation and A = [e g; g -e],
+  // e = (a - d)/2, g = (b + c)/2. Then F = R S with S = (r/2) I + R^T A, whose eigenvalues, the
+  // signed singular values, are r/2 +- |(e, g)|; and replacing them by clamped ones gives
+  // F' = mean' R + (half-difference' / |(e, g)|) A. Two independent square roots, no SVD.
+  const Real x = F_E(0, 0) + F_E(1, 1), y = F_E(1, 0) - F_E(0, 1);
+  const Real e = Real(0.5) * (F_E(0, 0) - F_E(1, 1)), g = Real(0.5) * (F_E(0, 1) + F_E(1, 0));
+  const Real r = std::sqrt(x * x + y * y), rad = std::sqrt(e * e + g * g);
+  const Real s0 = Real(0.5) * r + rad, s1 = Real(0.5) * r - rad;
   const Real lo = 1 - m.theta_c, hi = 1 + m.theta_s;
-  const Real s0 = p.mean + p.rad, s1 = p.mean - p.rad;
   const Real c0 = std::clamp(s0, lo, hi), c1 = std::clamp(s1, lo, hi);  // eq. 11
-  Mat<2> S_clamped = Real(0.5) * (c0 + c1) * Mat<2>::Identity();
-  Real cos2 = 1, sin2 = 0;  // (cos 2phi, sin 2phi) of the larger eigenvector
-  if (p.rad > 0) {
-    cos2 = p.half / p.rad;
-    sin2 = p.b / p.rad;
-    const Real k = Real(0.5) * (c0 - c1);
-    S_clamped(0, 0) += k * cos2;
-    S_clamped(1, 1) -= k * cos2;
-    S_clamped(0, 1) = S_clamped(1, 0) = k * sin2;
+  if (r > 0) {
+    R_E << x, -y, y, x;
+    R_E /= r;
+  } else {
+    R_E.setIdentity();  // as polarRotation: any rotation will do
   }
-  R_E = p.R;  // clamping changes S only: the rotation of the new F_E
-  F_E = R_E * S_clamped;
-  V_E = halfAngleRotation(cos2, sin2);
+  if (c0 == s0 && c1 == s1) return J_P;  // inside the elastic range: F_E stays as it is
+  F_E = Real(0.5) * (c0 + c1) * R_E;
+  if (rad > 0) {
+    const Real k = Real(0.5) * (c0 - c1) / rad;
+    F_E(0, 0) += k * e;
+    F_E(1, 1) -= k * e;
+    F_E(0, 1) += k * g;
+    F_E(1, 0) += k * g;
+  }
   // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
   return J_P * (s0 * s1) / (c0 * c1);
 }
 
-template <>
-Real plasticReturnMappingJ<3>(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E,
-                              Mat<3>& V_E) {
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E, Mat<3>& V_E) {
   Mat<3> U;
   Mat<3>& V = V_E;
   Vec<3> sigma;

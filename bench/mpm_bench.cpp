@@ -66,7 +66,8 @@ void measure(const char* label, const Json& j, int steps, int reps) {
     rate[t - 1] = rates[reps / 2];
   }
   const size_t bytes = sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 3 +
-                       sizeof(Mat<D>) * (D == 3 ? 4 : 3) + sizeof(Vec<D>) + sizeof(Lame);  // 3D: V_E
+                       sizeof(Mat<D>) * (D == 3 ? 4 : 3) + sizeof(Vec<D>) +
+                       sizeof(Lame);  // 3D: V_E
   std::printf(
       "%s: %d particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f), "
       "bit-identical: %s, %zu bytes/particle\n",

@@ -1,8 +1,11 @@
 #include "sim/mpm.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "sim/errors.h"
 #include "sim/transfer.h"
@@ -44,7 +47,6 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   lame_.resize(n);
   for (int p = 0; p < n; ++p) updateLame(p);
   C_.assign(n, Mat<D>::Zero());
-  v_grid_.assign(n, Vec<D>::Zero());
   order_.resize(n);
   energy_chunks_.resize((n + energy_chunk - 1) / energy_chunk);
   particle_block_.resize(n);
@@ -54,15 +56,6 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
     block_count *= blocks_[a];
   }
   block_start_.assign(block_count + 1, 0);
-  colour_blocks_.assign(1 << D, {});
-  for (int b = 0; b < block_count; ++b) {
-    int colour = 0, rest = b;
-    for (int a = 0; a < D; ++a) {
-      colour |= (rest % blocks_[a] % 2) << a;
-      rest /= blocks_[a];
-    }
-    colour_blocks_[colour].push_back(b);
-  }
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   binParticles();
   rasterise(0);
@@ -103,27 +96,61 @@ void MpmSolver<D>::step(Real dt) {
 template <int D>
 void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
-  std::fill(block_start_.begin(), block_start_.end(), 0);
-  const Real inv = 1 / (grid_.h * block_cells);
-  IVec<D> first_block = blocks_, last_block = IVec<D>::Constant(-1);
-  for (int p = 0; p < n; ++p) {
-    int b = 0, s = 1;
-    for (int a = 0; a < D; ++a) {
-      const int k =
-          std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
-      first_block[a] = std::min(first_block[a], k);
-      last_block[a] = std::max(last_block[a], k);
-      b += k * s;
-      s *= blocks_[a];
-    }
-    particle_block_[p] = b;
-    ++block_start_[b + 1];
+  const int block_count = static_cast<int>(block_start_.size()) - 1;
+  parts_ = parallel_ ? omp_get_max_threads() : 1;
+  if (static_cast<int>(part_rows_.size()) < parts_ + 1) {  // first step, or more threads
+    part_rows_.resize(parts_ + 1);
+    part_measures_.resize(parts_);
+    range_cursor_.resize(static_cast<size_t>(parts_) * block_count);
+    range_first_block_.resize(parts_);
+    range_last_block_.resize(parts_);
   }
-  for (size_t b = 1; b < block_start_.size(); ++b) block_start_[b] += block_start_[b - 1];
-  // Stable counting sort: particles keep their index order within a block (determinism).
-  std::vector<int>& next = v_cursor_;
-  next.assign(block_start_.begin(), block_start_.end() - 1);
-  for (int p = 0; p < n; ++p) order_[next[particle_block_[p]]++] = p;
+  const Real inv = 1 / (grid_.h * block_cells);
+  // Counting sort, each part on one contiguous range of particle indices: count per block, a
+  // prefix sum over (block, range) gives each range its place in each block, each range places
+  // its particles. A stable sort: its result does not depend on how the particles were split.
+  const auto rangeStart = [&](int r) {
+    return static_cast<int>(static_cast<long>(n) * r / parts_);
+  };
+  forEachPart([&](int r) {
+    int* count = &range_cursor_[static_cast<size_t>(r) * block_count];
+    std::fill(count, count + block_count, 0);
+    IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
+    for (int p = rangeStart(r); p < rangeStart(r + 1); ++p) {
+      int b = 0, s = 1;
+      for (int a = 0; a < D; ++a) {
+        const int k =
+            std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+        first[a] = std::min(first[a], k);
+        last[a] = std::max(last[a], k);
+        b += k * s;
+        s *= blocks_[a];
+      }
+      particle_block_[p] = b;
+      ++count[b];
+    }
+    range_first_block_[r] = first;
+    range_last_block_[r] = last;
+  });
+  int placed = 0;
+  for (int b = 0; b < block_count; ++b) {
+    block_start_[b] = placed;
+    for (int r = 0; r < parts_; ++r)
+      placed += std::exchange(range_cursor_[static_cast<size_t>(r) * block_count + b], placed);
+  }
+  block_start_[block_count] = placed;
+  forEachPart([&](int r) {
+    int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
+    for (int p = rangeStart(r); p < rangeStart(r + 1); ++p)
+      order_[cursor[particle_block_[p]]++] = p;
+  });
+  splitRows();
+
+  IVec<D> first_block = blocks_, last_block = IVec<D>::Constant(-1);
+  for (int r = 0; r < parts_; ++r) {
+    first_block = first_block.cwiseMin(range_first_block_[r]);
+    last_block = last_block.cwiseMax(range_last_block_[r]);
+  }
 
   // A particle of cell c reaches nodes c-1 .. c+2 with either kernel; two more on each side hold
   // particles just outside the domain, which the edge blocks keep.
@@ -131,6 +158,39 @@ void MpmSolver<D>::binParticles() {
   for (int a = 0; a < D; ++a) {
     active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
     active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
+  }
+}
+
+template <int D>
+void MpmSolver<D>::splitRows() {
+  const int rows = (static_cast<int>(block_start_.size()) - 1) / blocks_[0];
+  const long n = particles_.size();
+  part_rows_[0] = 0;
+  int row = 0;
+  for (int t = 1; t < parts_; ++t) {
+    while (row < rows && rowFirstParticle(row) < n * t / parts_) ++row;
+    part_rows_[t] = row;
+  }
+  part_rows_[parts_] = rows;
+}
+
+template <int D>
+int MpmSolver<D>::rowPhase(int row) const {
+  int phase = 0;
+  for (int a = 1; a < D; ++a) {
+    phase |= (row % blocks_[a] % 2) << (a - 1);
+    row /= blocks_[a];
+  }
+  return phase;
+}
+
+template <int D>
+template <class F>
+void MpmSolver<D>::forEachPart(F&& f) {
+#pragma omp parallel num_threads(parts_) if (parallel_)
+  {
+    const int team = omp_get_num_threads();  // the runtime may grant fewer threads than asked
+    for (int part = omp_get_thread_num(); part < parts_; part += team) f(part);
   }
 }
 
@@ -165,49 +225,49 @@ void MpmSolver<D>::rasteriseWith(Real dt) {
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
   const bool mls = params_.transfer == MpmTransfer::Mls;
-  for (const std::vector<int>& colour : colour_blocks_) {
-    const int count = static_cast<int>(colour.size());
-#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
-    for (int c = 0; c < count; ++c) {
-      const int b = colour[c];
-      for (int o = block_start_[b]; o < block_start_[b + 1]; ++o) {
-        const int p = order_[o];
-        const Vec<D>& x = particles_.x[p];
-        const Real m = particles_.mass[p];
-        const Vec<D> mv = m * particles_.v[p];
-        // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
-        // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
-        const Real V0 = particles_.volume[p];
-        const Mat<D> stress =
-            V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
-                   : Mat<D>::Zero();
-        const Stencil<D, Kernel> s(x, inv_h);
-        if (mls) {
-          // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
-          // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), mass and momentum
-          // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
-          const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
-          TensorStencil<D, Kernel>(grid_, s, x)
-              .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
-                fields_.mass[k] += w * m;
-                fields_.velocity[k] += w * momentum;
-              });
-          continue;
+  for (int phase = 0; phase < (1 << (D - 1)); ++phase)
+    forEachPart([&](int part) {
+      for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
+        if (rowPhase(row) != phase) continue;
+        for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
+          const int p = order_[o];
+          const Vec<D>& x = particles_.x[p];
+          const Real m = particles_.mass[p];
+          const Vec<D> mv = m * particles_.v[p];
+          // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
+          // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq.
+          // 18).
+          const Real V0 = particles_.volume[p];
+          const Mat<D> stress =
+              V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
+                     : Mat<D>::Zero();
+          const Stencil<D, Kernel> s(x, inv_h);
+          if (mls) {
+            // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
+            // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), mass and momentum
+            // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
+            const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
+            TensorStencil<D, Kernel>(grid_, s, x)
+                .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
+                  fields_.mass[k] += w * m;
+                  fields_.velocity[k] += w * momentum;
+                });
+            continue;
+          }
+          const Mat<D> mC = m * C_[p];
+          visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+            const int k = node.index;
+            const Real w = s.weightAt(node.offset);
+            fields_.mass[k] += w * m;
+            // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
+            Vec<D> momentum = mv;
+            if (affine) momentum.noalias() += mC * node.dx;
+            fields_.velocity[k] += w * momentum;
+            fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
+          });
         }
-        const Mat<D> mC = m * C_[p];
-        visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
-          const int k = node.index;
-          const Real w = s.weightAt(node.offset);
-          fields_.mass[k] += w * m;
-          // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
-          Vec<D> momentum = mv;
-          if (affine) momentum.noalias() += mC * node.dx;
-          fields_.velocity[k] += w * momentum;
-          fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
-        });
       }
-    }
-  }
+    });
 }
 
 template <int D>
@@ -288,21 +348,28 @@ template <int D>
 template <class Kernel>
 void MpmSolver<D>::updateParticlesWith(Real dt) {
   // One pass: each particle's arrays are loaded once for the four stages, not once per stage.
-  Real speed = 0, signal = 0;
-  bool finite = true;
-  const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_) reduction(max : speed, signal) \
-    reduction(&& : finite)
-  for (int p = 0; p < n; ++p) {
-    gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
-    updateDeformation(p, dt);   // 7
-    collideParticle(p);         // 9
-    advect(p, dt);              // 10
-    measureSpeed(p, speed, signal, finite);
+  // A thread takes the part it scattered, in the scatter's order: the grid nodes it gathers from
+  // and the particle data are still in its cache.
+  forEachPart([&](int part) {
+    PartMeasure m;
+    for (int o = rowFirstParticle(part_rows_[part]); o < rowFirstParticle(part_rows_[part + 1]);
+         ++o) {
+      const int p = order_[o];
+      gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
+      updateDeformation(p, dt);   // 7
+      collideParticle(p);         // 9
+      advect(p, dt);              // 10
+      measureSpeed(p, m.speed, m.signal, m.finite);
+    }
+    part_measures_[part] = m;
+  });
+  fastest_speed_ = fastest_signal_ = 0;
+  finite_ = true;
+  for (int part = 0; part < parts_; ++part) {  // maxima: exact in any order
+    fastest_speed_ = std::max(fastest_speed_, part_measures_[part].speed);
+    fastest_signal_ = std::max(fastest_signal_, part_measures_[part].signal);
+    finite_ = finite_ && part_measures_[part].finite;
   }
-  fastest_speed_ = speed;
-  fastest_signal_ = signal;
-  finite_ = finite;
 }
 
 template <int D>

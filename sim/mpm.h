@@ -66,6 +66,11 @@ class MpmSolver final : public Solver<D> {
   void advect(int p, Real dt);             // 10. x += dt v, kept out of colliders and in the domain
 
   void binParticles();
+  void splitRows();  // part_rows_ from the sorted particles
+  int rowPhase(int row) const;
+  int rowFirstParticle(int row) const { return block_start_[row * blocks_[0]]; }
+  template <class F>
+  void forEachPart(F&& f);  // f(part) for each part, in parallel for large scenes
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
   template <class Kernel>
@@ -81,25 +86,40 @@ class MpmSolver final : public Solver<D> {
   Vec<D> gravity_;
   std::string file_;
   Particles<D> particles_;
-  std::vector<Mat<D>> F_E_;     // elastic deformation gradient
-  std::vector<Mat<D>> R_E_;     // its polar rotation, from the last return mapping
-  std::vector<Mat<D>> V_E_;     // 3D: its right singular vectors, the next SVD's starting guess
-  std::vector<Real> J_P_;       // det F_P, plastic volume ratio
-  std::vector<Mat<D>> C_;       // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
-  std::vector<Vec<D>> v_grid_;  // per particle: interpolated grid velocity (PIC part)
+  std::vector<Mat<D>> F_E_;  // elastic deformation gradient
+  std::vector<Mat<D>> R_E_;  // its polar rotation, from the last return mapping
+  std::vector<Mat<D>> V_E_;  // 3D: its right singular vectors, the next SVD's starting guess
+  std::vector<Real> J_P_;    // det F_P, plastic volume ratio
+  std::vector<Mat<D>> C_;    // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   GridGeometry<D> grid_;
   GridFields<D> fields_;
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene
-  // Deterministic parallel P2G: particles binned into blocks of 4^D cells, blocks processed in 2^D
-  // colours so no two blocks of a colour write the same node; fixed order within a block.
+  // Deterministic parallel P2G: particles binned into blocks of 4^D cells, sorted by block, in
+  // index order within a block. A row of blocks along x is the unit of work. Rows go in 2^(D-1)
+  // phases by the parity of their y (and z) block index, so the rows of a phase are a block apart
+  // and write no common node; each node sums its particles in one order on any thread count.
   static constexpr int block_cells = 4;
   IVec<D> blocks_;
   std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
   std::vector<int> order_;
   std::vector<int> particle_block_;
-  std::vector<int> v_cursor_;  // counting-sort cursors, one per block
-  std::vector<std::vector<int>> colour_blocks_;
+  // The work is cut into parts, one per thread, each a run of whole rows holding about the same
+  // number of particles: part t has rows part_rows_[t] .. part_rows_[t + 1]. The scatter and the
+  // particle pass give a thread the same part, so the particles and the grid nodes a thread writes
+  // in one stage are the ones it reads in the next, from its own cache.
+  int parts_ = 1;
+  std::vector<int> part_rows_;
+  struct PartMeasure {  // what measureSpeed finds in one part
+    Real speed = 0, signal = 0;
+    bool finite = true;
+  };
+  std::vector<PartMeasure> part_measures_;
+  // Counting-sort state per part r, each sorting one contiguous range of particle indices:
+  // range_cursor_[r * blocks + b] counts, then places, its particles of block b;
+  // range_first/last_block_[r] bound the blocks its particles are in.
+  std::vector<int> range_cursor_;
+  std::vector<IVec<D>> range_first_block_, range_last_block_;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
   // Nodes outside stay zero (rasterise clears the previous step's box).
@@ -126,9 +146,8 @@ class MpmSolver final : public Solver<D> {
   int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
-  // Threads only pay off from a few thousand particles: below, thread start-up and the barriers of
-  // the dozen parallel loops per step cost more than they share. bench/mpm_bench with the second
-  // core free: x1.71 at 3136 particles (2D), x1.80 at 23716; on a busy machine less.
+  // Threads only pay off from a few thousand particles: below, waking the threads for the ten or so
+  // parallel loops of a step costs more than they share (README, "Speed", for the measured ratios).
   static constexpr int parallel_min_particles = 2048;
   bool parallel_ = false;
   long steps_ = 0;

@@ -43,8 +43,9 @@ namespace snowsim {
 namespace {
 
 // A snowball thrown at the ground and the right wall, so collisions and plasticity run too.
+// particles_per_cell 36 (2,800 particles) puts the 2D ball above the solver's threading threshold.
 template <int D>
-long allocationsPerStepAfterTheFirst(const std::string& integrator) {
+long allocationsPerStepAfterTheFirst(const std::string& integrator, int particles_per_cell = 0) {
   Json j = Json::parse(R"({"name": "alloc", "solver": "mpm", "particles_per_cell": 4,
     "time": {"dt": 0.001, "duration": 1, "fps": 10}})");
   j["dimension"] = D;
@@ -61,6 +62,7 @@ long allocationsPerStepAfterTheFirst(const std::string& integrator) {
                     {"radius", 0.03},
                     {"velocity", {2, -2, 0}}}};
   }
+  if (particles_per_cell > 0) j["particles_per_cell"] = particles_per_cell;
   const Scene scene = parseScene(j, "alloc.json");
   const long at_start = allocations.load();
   MpmSolver<D> solver(scene, sampleBodies<D>(scene));
@@ -74,6 +76,9 @@ long allocationsPerStepAfterTheFirst(const std::string& integrator) {
 
 TEST(NoAllocation, ExplicitStep2D) {
   EXPECT_EQ(allocationsPerStepAfterTheFirst<2>("explicit"), 0);
+}
+TEST(NoAllocation, ExplicitStep2DOnTwoThreads) {
+  EXPECT_EQ(allocationsPerStepAfterTheFirst<2>("explicit", 36), 0);
 }
 TEST(NoAllocation, ExplicitStep3D) {
   EXPECT_EQ(allocationsPerStepAfterTheFirst<3>("explicit"), 0);

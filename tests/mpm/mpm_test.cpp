@@ -309,12 +309,15 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     run(s, 0.004);
     return s.particles().x;
   };
-  const auto a = runWith(1), b = runWith(1), c = runWith(2);
+  // Three threads on two cores: the work splits unevenly and the threads take turns.
+  const auto a = runWith(1), b = runWith(1), c = runWith(2), d = runWith(3);
   omp_set_num_threads(omp_get_num_procs());
   ASSERT_EQ(a.size(), c.size());
+  ASSERT_EQ(a.size(), d.size());
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i], b[i]);
     EXPECT_EQ(a[i], c[i]);
+    EXPECT_EQ(a[i], d[i]);
   }
 }
 

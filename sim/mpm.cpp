@@ -48,7 +48,6 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   for (int p = 0; p < n; ++p) updateLame(p);
   C_.assign(n, Mat<D>::Zero());
   order_.resize(n);
-  energy_chunks_.resize((n + energy_chunk - 1) / energy_chunk);
   particle_block_.resize(n);
   int block_count = 1;
   for (int a = 0; a < D; ++a) {
@@ -56,20 +55,21 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
     block_count *= blocks_[a];
   }
   block_start_.assign(block_count + 1, 0);
+  row_energy_.resize(block_count / blocks_[0]);
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   binParticles();
-  rasterise(0);
+  scatter(0);
   computeParticleVolumes();
   for (int p = 0; p < n; ++p) total_mass_ += particles_.mass[p];
   for (const Collider<D>& c : colliders_) colliders_move_ = colliders_move_ || !c.velocity.isZero();
-  measureSpeeds();
+  measureParticles();
 }
 
 template <int D>
 void MpmSolver<D>::step(Real dt) {
   if (steps_ == 0) {
     // The state as the first step finds it (a caller may have set velocities since construction).
-    measureSpeeds();
+    measureParticles();
     initial_energy_ = energy_;
   }
   const Real stable_dt =
@@ -79,17 +79,17 @@ void MpmSolver<D>::step(Real dt) {
     step_when_exceeded_ = steps_;
   }
   binParticles();
-  rasterise(dt);             // 1, 3: mass, momentum and forces to the grid
-  updateGridVelocities(dt);  // 4: explicit update
-  if (params_.integrator == MpmIntegrator::SemiImplicit)
+  scatter(dt);  // 1, 3: mass, momentum and forces to the grid
+  if (params_.integrator == MpmIntegrator::SemiImplicit) {
+    updateGridVelocities(dt);     // 4: explicit update
     solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
-  else
-    collideGrid();      // 5: grid collisions
+  } else {
+    updateCollidedGridVelocities(dt);  // 4 + 5: explicit update, grid collisions
+  }
   updateParticles(dt);  // 8, 7, 9, 10: velocities, F_E and plasticity, collisions, positions
   for (Collider<D>& c : colliders_) c.advance(dt);
   ++steps_;
   time_ += dt;
-  measureEnergy();
   checkBlowUp(dt);
 }
 
@@ -154,7 +154,6 @@ void MpmSolver<D>::binParticles() {
 
   // A particle of cell c reaches nodes c-1 .. c+2 with either kernel; two more on each side hold
   // particles just outside the domain, which the edge blocks keep.
-  previously_active_ = active_;
   for (int a = 0; a < D; ++a) {
     active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
     active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
@@ -203,24 +202,26 @@ void MpmSolver<D>::forActiveNodes(F&& f) {
 }
 
 template <int D>
-void MpmSolver<D>::rasterise(Real dt) {
-  // Only the last step's box holds anything: clearing it zeroes the whole grid.
-  const int stale = previously_active_.count();
+void MpmSolver<D>::scatter(Real dt) {
+  // Only the last scatter's box holds anything: clearing it zeroes the whole grid.
+  const int stale = filled_.count();
 #pragma omp parallel for schedule(static) if (parallel_)
-  for (int n = 0; n < stale; ++n) fields_.clearNode(previously_active_.flatIndex(grid_, n));
-  withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
-  // Momentum to velocity; keep the rasterised velocity for the FLIP increment.
-  const bool flip = params_.transfer == MpmTransfer::PicFlip;
-  forActiveNodes([&](int k) {
-    const Real m = fields_.mass[k];
-    fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
-    if (flip) fields_.velocity_old[k] = fields_.velocity[k];
-  });
+  for (int n = 0; n < stale; ++n) fields_.clearNode(filled_.flatIndex(grid_, n));
+  filled_ = active_;
+  withKernel(params_.kernel, [&]<class Kernel>() { scatterWith<Kernel>(dt); });
+}
+
+template <int D>
+void MpmSolver<D>::velocityFromMomentum(int k) {
+  // Keeps the rasterised velocity for the FLIP increment.
+  const Real m = fields_.mass[k];
+  fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
+  if (params_.transfer == MpmTransfer::PicFlip) fields_.velocity_old[k] = fields_.velocity[k];
 }
 
 template <int D>
 template <class Kernel>
-void MpmSolver<D>::rasteriseWith(Real dt) {
+void MpmSolver<D>::scatterWith(Real dt) {
   const Real h = grid_.h, inv_h = 1 / h;
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
@@ -298,14 +299,36 @@ void MpmSolver<D>::computeParticleVolumes() {
 }
 
 template <int D>
+void MpmSolver<D>::accelerate(int k, Real dt) {
+  const Real m = fields_.mass[k];
+  if (m <= 0) return;
+  fields_.velocity[k] += dt * gravity_;
+  // MLS rasterised dt f_i with the momentum: its force field stays zero and only gravity remains.
+  if (params_.transfer != MpmTransfer::Mls)
+    fields_.velocity[k] += (dt / m) * fields_.force[k];  // eq. 8, explicit
+}
+
+template <int D>
+void MpmSolver<D>::collideNode(int k) {
+  if (fields_.mass[k] <= 0) return;
+  const Vec<D> x = grid_.position(grid_.coords(k));
+  for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
+}
+
+template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
-  // MLS rasterised dt f_i with the momentum: the force field stays zero and only gravity remains.
-  const bool force_rasterised = params_.transfer == MpmTransfer::Mls;
   forActiveNodes([&](int k) {
-    const Real m = fields_.mass[k];
-    if (m <= 0) return;
-    fields_.velocity[k] += dt * gravity_;
-    if (!force_rasterised) fields_.velocity[k] += (dt / m) * fields_.force[k];  // eq. 8, explicit
+    velocityFromMomentum(k);
+    accelerate(k, dt);
+  });
+}
+
+template <int D>
+void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
+  forActiveNodes([&](int k) {  // one pass: each node is loaded once for the three
+    velocityFromMomentum(k);
+    accelerate(k, dt);
+    collideNode(k);
   });
 }
 
@@ -331,15 +354,6 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
 }
 
 template <int D>
-void MpmSolver<D>::collideGrid() {
-  forActiveNodes([&](int k) {
-    if (fields_.mass[k] <= 0) return;
-    const Vec<D> x = grid_.position(grid_.coords(k));
-    for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
-  });
-}
-
-template <int D>
 void MpmSolver<D>::updateParticles(Real dt) {
   withKernel(params_.kernel, [&]<class Kernel>() { updateParticlesWith<Kernel>(dt); });
 }
@@ -348,18 +362,31 @@ template <int D>
 template <class Kernel>
 void MpmSolver<D>::updateParticlesWith(Real dt) {
   // One pass: each particle's arrays are loaded once for the four stages, not once per stage.
+  passOverParticles([&](int p) {
+    gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
+    updateDeformation(p, dt);   // 7
+    collideParticle(p);         // 9
+    advect(p, dt);              // 10
+  });
+}
+
+template <int D>
+template <class F>
+void MpmSolver<D>::passOverParticles(F&& update) {
   // A thread takes the part it scattered, in the scatter's order: the grid nodes it gathers from
-  // and the particle data are still in its cache.
+  // and the particle data are still in its cache. The energy is summed per row of blocks, then
+  // the rows in order: the same sum on any thread count.
   forEachPart([&](int part) {
     PartMeasure m;
-    for (int o = rowFirstParticle(part_rows_[part]); o < rowFirstParticle(part_rows_[part + 1]);
-         ++o) {
-      const int p = order_[o];
-      gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
-      updateDeformation(p, dt);   // 7
-      collideParticle(p);         // 9
-      advect(p, dt);              // 10
-      measureSpeed(p, m.speed, m.signal, m.finite);
+    for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
+      Real energy = 0;
+      for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
+        const int p = order_[o];
+        update(p);
+        measure(p, m);
+        energy += particleEnergy(p);
+      }
+      row_energy_[row] = energy;
     }
     part_measures_[part] = m;
   });
@@ -370,6 +397,17 @@ void MpmSolver<D>::updateParticlesWith(Real dt) {
     fastest_signal_ = std::max(fastest_signal_, part_measures_[part].signal);
     finite_ = finite_ && part_measures_[part].finite;
   }
+  Real energy = 0;
+  for (const Real row : row_energy_) energy += row;
+  // The gravitational energy counts from the domain's lowest point along gravity, so it is >= 0.
+  Real lowest = 0;  // min over the domain box of -g.x
+  for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
+  energy_ = energy - total_mass_ * lowest;
+}
+
+template <int D>
+void MpmSolver<D>::measureParticles() {
+  passOverParticles([](int) {});
 }
 
 template <int D>
@@ -429,47 +467,18 @@ void MpmSolver<D>::advect(int p, Real dt) {
 }
 
 template <int D>
-void MpmSolver<D>::measureSpeed(int p, Real& speed, Real& signal, bool& finite) const {
+void MpmSolver<D>::measure(int p, PartMeasure& m) const {
   const Real v = particles_.v[p].norm();
-  finite = finite && std::isfinite(v) && particles_.x[p].allFinite();
-  speed = std::max(speed, v);
-  signal = std::max(signal, pWaveSpeed(lame_[p], particles_.density[p]) + v);
+  m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
+  m.speed = std::max(m.speed, v);
+  m.signal = std::max(m.signal, pWaveSpeed(lame_[p], particles_.density[p]) + v);
 }
 
 template <int D>
-void MpmSolver<D>::measureSpeeds() {
-  Real speed = 0, signal = 0;
-  bool finite = true;
-  const int n = particles_.size();
-#pragma omp parallel for schedule(static) if (parallel_) reduction(max : speed, signal) \
-    reduction(&& : finite)
-  for (int p = 0; p < n; ++p) measureSpeed(p, speed, signal, finite);
-  fastest_speed_ = speed;
-  fastest_signal_ = signal;
-  finite_ = finite;
-  measureEnergy();
-}
-
-template <int D>
-void MpmSolver<D>::measureEnergy() {
-  // Kinetic plus gravitational energy, the latter from the domain's lowest point along gravity so
-  // it is >= 0. Summed in fixed chunks of particles, then the chunks in order: the same sum on any
-  // thread count.
-  const int n = particles_.size();
-  const int chunks = static_cast<int>(energy_chunks_.size());
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int c = 0; c < chunks; ++c) {
-    Real sum = 0;
-    for (int p = c * energy_chunk; p < std::min(n, (c + 1) * energy_chunk); ++p)
-      sum += particles_.mass[p] *
-             (Real(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
-    energy_chunks_[c] = sum;
-  }
-  Real energy = 0;
-  for (const Real sum : energy_chunks_) energy += sum;
-  Real lowest = 0;  // min over the domain box of -g.x, times the mass
-  for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
-  energy_ = energy - total_mass_ * lowest;
+Real MpmSolver<D>::particleEnergy(int p) const {
+  // Kinetic plus gravitational, the latter from the origin (passOverParticles shifts it).
+  return particles_.mass[p] *
+         (Real(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
 }
 
 template <int D>

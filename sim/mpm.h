@@ -1,9 +1,9 @@
 // MPM snow (Stomakhin, Schroeder, Chai, Teran, Selle 2013, "A Material Point Method for Snow
 // Simulation"), explicit symplectic Euler, PIC/FLIP, APIC or MLS-MPM transfers, quadratic or cubic
-// B-splines. One step is the paper's section 4 list of stages. A semi-implicit velocity solve
-// (paper section 9) slots in between updateGridVelocities() and collideGrid(): it can read the grid
-// (fields(), grid()) and the per-particle F_E, V_p^0 and Lamé parameters (elasticGradient(),
-// particles().volume, lame()).
+// B-splines. One step is the paper's section 4 list of stages. The semi-implicit velocity solve
+// (paper section 9) takes the place of the grid collisions after updateGridVelocities(): it reads
+// the grid (fields(), grid()) and the per-particle F_E, V_p^0 and Lamé parameters
+// (elasticGradient(), particles().volume, lame()).
 #pragma once
 
 #include <limits>
@@ -48,15 +48,27 @@ class MpmSolver final : public Solver<D> {
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
-  void rasterise(Real dt);             // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7)
-  void computeParticleVolumes();       // 2. first step only: rho_p^0, V_p^0 (section 4 step 2)
-  void updateGridVelocities(Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void solveImplicitVelocities(
-      Real dt);                   // 5 + 6. collide v*, then (I + beta dt^2 M^-1 d2Phi) v = v*
-  void collideGrid();             // 5. grid-based body collisions (section 8)
-  void updateParticles(Real dt);  // 8, 7, 9, 10 below, in one pass over the particles
+  // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7); the grid velocity holds the momentum.
+  void scatter(Real dt);
+  // 2. First step only: rho_p^0, V_p^0 (section 4 step 2).
+  void computeParticleVolumes();
+  // 4. After scatter: v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
+  void updateGridVelocities(Real dt);
+  // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
+  void solveImplicitVelocities(Real dt);
+  // 4 + 5, explicit: updateGridVelocities, then the grid body collisions (section 8), in one pass.
+  void updateCollidedGridVelocities(Real dt);
+  // 8, 7, 9, 10 below, in one pass over the particles.
+  void updateParticles(Real dt);
 
  private:
+  // Per grid node k, after the scatter: what stages 1, 4 and 5 do to it.
+  void velocityFromMomentum(int k);
+  void accelerate(int k, Real dt);  // eq. 8 explicit, plus gravity
+  void collideNode(int k);
+  template <class Kernel>
+  void scatterWith(Real dt);
+
   template <class Kernel>
   void updateParticlesWith(Real dt);
   template <class Kernel>
@@ -73,12 +85,18 @@ class MpmSolver final : public Solver<D> {
   void forEachPart(F&& f);  // f(part) for each part, in parallel for large scenes
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
-  template <class Kernel>
-  void rasteriseWith(Real dt);
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
-  void measureSpeed(int p, Real& speed, Real& signal, bool& finite) const;
-  void measureSpeeds();  // speeds (as updateParticles measures them) and energy
-  void measureEnergy();
+
+  struct PartMeasure {  // the fastest particles of one part
+    Real speed = 0, signal = 0;
+    bool finite = true;
+  };
+  // update(p) for each particle, part by part, then the speeds and the energy they leave.
+  template <class F>
+  void passOverParticles(F&& update);
+  void measureParticles();  // the speeds and energy of the current state
+  void measure(int p, PartMeasure& m) const;
+  Real particleEnergy(int p) const;
   void checkBlowUp(Real dt) const;
 
   MpmParams params_;
@@ -110,10 +128,6 @@ class MpmSolver final : public Solver<D> {
   // in one stage are the ones it reads in the next, from its own cache.
   int parts_ = 1;
   std::vector<int> part_rows_;
-  struct PartMeasure {  // what measureSpeed finds in one part
-    Real speed = 0, signal = 0;
-    bool finite = true;
-  };
   std::vector<PartMeasure> part_measures_;
   // Counting-sort state per part r, each sorting one contiguous range of particle indices:
   // range_cursor_[r * blocks + b] counts, then places, its particles of block b;
@@ -122,17 +136,17 @@ class MpmSolver final : public Solver<D> {
   std::vector<IVec<D>> range_first_block_, range_last_block_;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
-  // Nodes outside stay zero (rasterise clears the previous step's box).
-  NodeBox<D> active_, previously_active_;
+  // Nodes outside stay zero (scatter clears what it wrote last time).
+  NodeBox<D> active_;
+  NodeBox<D> filled_;  // the nodes the last scatter wrote, to clear before the next
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.
-  Real fastest_speed_ = 0;   // max |v_p|
-  Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
-  bool finite_ = true;       // every position and velocity finite
-  Real energy_ = 0;          // kinetic + gravitational (J), see measureEnergy
-  static constexpr int energy_chunk = 4096;
-  std::vector<Real> energy_chunks_;  // partial sums, for a thread-count independent total
+  Real fastest_speed_ = 0;        // max |v_p|
+  Real fastest_signal_ = 0;       // max (c_p + |v_p|), c_p the P-wave speed
+  bool finite_ = true;            // every position and velocity finite
+  Real energy_ = 0;               // kinetic + gravitational (J), see passOverParticles
+  std::vector<Real> row_energy_;  // per row of blocks, for a thread-count independent total
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
   bool colliders_move_ = false;  // a moving collider adds energy: no energy check then

@@ -121,7 +121,7 @@ void checkSymmetry(const std::string& transfer) {
   j["mpm"]["transfer"] = transfer;
   const Scene scene = parseScene(j, "test.json");
   MpmSolver<D> solver(scene, sampleBodies<D>(scene));
-  solver.rasterise(0);
+  solver.scatter(0);
   std::mt19937 rng(11);
   const int n = solver.particles().size();
   std::vector<Mat<D>> F(n);

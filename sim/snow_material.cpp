@@ -239,7 +239,55 @@ Real plasticReturnMappingJ(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>&
   return J_P * (s0 * s1) / (c0 * c1);
 }
 
+namespace {
+
+// The polar rotation of F by Newton's iteration X <- (X + X^-T) / 2 (Higham 1986), started from F
+// itself: it squares the distance of each singular value from 1 per iteration, so the few percent
+// that snow's F_E strays from a rotation take four iterations to round-off. False if det F <= 0
+// (the polar factor would be a reflection) or it does not converge in a few iterations.
+bool newtonPolar3(const Mat<3>& F, Mat<3>& R) {
+  Mat<3> X = F;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    Mat<3> cofactor;  // det X X^-T
+    cofactor.col(0) = X.col(1).cross(X.col(2));
+    cofactor.col(1) = X.col(2).cross(X.col(0));
+    cofactor.col(2) = X.col(0).cross(X.col(1));
+    const Real det = X.col(0).dot(cofactor.col(0));
+    if (!(det > 0)) return false;
+    const Mat<3> next = Real(0.5) * (X + cofactor / det);
+    const Real change = (next - X).squaredNorm();
+    X = next;
+    if (change <= Real(1e-28)) {  // the next change would be ~1e-28: X is exact to round-off
+      R = X;
+      return true;
+    }
+  }
+  return false;
+}
+
+// Whether every eigenvalue of the symmetric part of S lies in [lo, hi] (S = R^T F has the
+// singular values of F as eigenvalues): S - lo I and hi I - S positive definite, by their leading
+// principal minors (Sylvester's criterion).
+bool eigenvaluesWithin(const Mat<3>& S, Real lo, Real hi) {
+  const Mat<3> sym = Real(0.5) * (S + S.transpose());
+  auto positiveDefinite = [](const Mat<3>& A) {
+    return A(0, 0) > 0 && A(0, 0) * A(1, 1) - A(0, 1) * A(1, 0) > 0 && A.determinant() > 0;
+  };
+  return positiveDefinite(sym - lo * Mat<3>::Identity()) &&
+         positiveDefinite(hi * Mat<3>::Identity() - sym);
+}
+
+}  // namespace
+
 Real plasticReturnMappingJ(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E, Mat<3>& V_E) {
+  // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
+  // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
+  Mat<3> R;
+  if (newtonPolar3(F_E, R) &&
+      eigenvaluesWithin(R.transpose() * F_E, 1 - m.theta_c, 1 + m.theta_s)) {
+    R_E = R;
+    return J_P;
+  }
   Mat<3> U;
   Mat<3>& V = V_E;
   Vec<3> sigma;

@@ -63,9 +63,10 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
 // Same, tracking only J_P (what the model needs: hardening depends on J_P alone). Returns new J_P
 // and sets R_E to the polar rotation U V^T of the new F_E, which the next stress evaluation
 // needs: one decomposition per particle per step instead of two. F_E is left bit for bit as it is
-// when no singular value is clamped. 2D works in closed form through the polar decomposition; 3D
-// keeps V_E, the right singular vectors of F_E: on entry the last step's (the SVD's starting
-// guess), on return the new ones.
+// when no singular value is clamped. 2D works in closed form through the polar decomposition. 3D
+// finds the polar rotation by Newton's iteration and needs an SVD only when a singular value
+// leaves its bounds; V_E holds the right singular vectors of the last SVD, the next one's starting
+// guess.
 Real plasticReturnMappingJ(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E);
 Real plasticReturnMappingJ(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E, Mat<3>& V_E);
 

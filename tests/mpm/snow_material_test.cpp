@@ -117,6 +117,55 @@ TEST(SnowMaterial, TwoDimensionalReturnMappingMatchesTheSvdDefinition) {
   }
 }
 
+// The 3D return mapping takes the polar rotation by Newton's iteration and skips the SVD when the
+// singular values are inside the bounds: on either path it must give what the SVD definition
+// gives, for unstrained, elastic (within bounds), plastic (beyond) and inverted F.
+TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
+  const SnowMaterial m;
+  std::mt19937 random(9);
+  std::normal_distribution<double> noise(0, 1);
+  auto rotation = [&] {
+    return Mat<3>(Eigen::AngleAxisd(
+        3 * noise(random), Vec<3>(noise(random), noise(random), noise(random)).normalized()));
+  };
+  std::vector<Mat<3>> cases = {Mat<3>::Identity(), Mat<3>::Identity() * 0.99,
+                               rotation() * Vec<3>(1.005, 0.98, 1.0).asDiagonal() * rotation(),
+                               rotation() * Vec<3>(1.2, 0.95, 0.9).asDiagonal() * rotation()};
+  for (int k = 0; k < 300; ++k) {
+    const Real spread = k % 3 == 0 ? 0.3 : 0.004;  // two in three stay elastic
+    cases.push_back(rotation() * (Mat<3>::Identity() + spread * Mat<3>::Random()));
+  }
+  // Singular values around the bounds, a little inside or a little beyond.
+  std::uniform_real_distribution<double> near_bounds(1 - m.theta_c - 0.01, 1 + m.theta_s + 0.01);
+  for (int k = 0; k < 300; ++k)
+    cases.push_back(
+        rotation() *
+        Vec<3>(near_bounds(random), near_bounds(random), near_bounds(random)).asDiagonal() *
+        rotation());
+  cases.push_back(Vec<3>(1, 1, -0.5).asDiagonal());  // inverted
+  int elastic = 0;
+  for (const Mat<3>& F : cases) {
+    Mat<3> U, V;
+    Vec<3> sigma;
+    signedSvd<3>(F, U, sigma, V);
+    const Vec<3> clamped = sigma.cwiseMax(1 - m.theta_c).cwiseMin(1 + m.theta_s);
+    const Mat<3> expected_F_E = U * clamped.asDiagonal() * V.transpose();
+    const Real expected_J_P = 0.8 * F.determinant() / expected_F_E.determinant();
+
+    Mat<3> F_E = F, R_E, V_E = Mat<3>::Identity();
+    const Real J_P = plasticReturnMappingJ(m, F_E, 0.8, R_E, V_E);
+    EXPECT_LT((F_E - expected_F_E).norm(), 1e-12) << F;
+    EXPECT_NEAR(J_P, expected_J_P, 1e-12) << F;
+    EXPECT_LT((R_E - U * V.transpose()).norm(), 1e-12) << F;
+    if (clamped == sigma) {
+      ++elastic;
+      EXPECT_EQ(F_E, F) << "unclamped F_E is kept bit for bit";
+      EXPECT_EQ(J_P, 0.8);
+    }
+  }
+  EXPECT_GT(elastic, 200) << "the elastic path was exercised";
+}
+
 // The 3x3 SVD on what snow meets: near rotations (nearly equal singular values), stretches,
 // reflections and a rank-one matrix. U and V are rotations, the product rebuilds F, and the
 // singular values match Eigen's JacobiSVD up to the sign of the last.

@@ -112,37 +112,40 @@ void MpmSolver<D>::binParticles() {
   const auto rangeStart = [&](int r) {
     return static_cast<int>(static_cast<long>(n) * r / parts_);
   };
-  forEachPart([&](int r) {
-    int* count = &range_cursor_[static_cast<size_t>(r) * block_count];
-    std::fill(count, count + block_count, 0);
-    IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
-    for (int p = rangeStart(r); p < rangeStart(r + 1); ++p) {
-      int b = 0, s = 1;
-      for (int a = 0; a < D; ++a) {
-        const int k =
-            std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
-        first[a] = std::min(first[a], k);
-        last[a] = std::max(last[a], k);
-        b += k * s;
-        s *= blocks_[a];
-      }
-      particle_block_[p] = b;
-      ++count[b];
-    }
-    range_first_block_[r] = first;
-    range_last_block_[r] = last;
-  });
-  int placed = 0;
-  for (int b = 0; b < block_count; ++b) {
-    block_start_[b] = placed;
-    for (int r = 0; r < parts_; ++r)
-      placed += std::exchange(range_cursor_[static_cast<size_t>(r) * block_count + b], placed);
-  }
-  block_start_[block_count] = placed;
-  forEachPart([&](int r) {
+  enum Phase { Count, Prefix, Place };
+  forEachPart(3, [&](int r, int phase) {
     int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
-    for (int p = rangeStart(r); p < rangeStart(r + 1); ++p)
-      order_[cursor[particle_block_[p]]++] = p;
+    if (phase == Count) {
+      std::fill(cursor, cursor + block_count, 0);
+      IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
+      for (int p = rangeStart(r); p < rangeStart(r + 1); ++p) {
+        int b = 0, s = 1;
+        for (int a = 0; a < D; ++a) {
+          const int k =
+              std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+          first[a] = std::min(first[a], k);
+          last[a] = std::max(last[a], k);
+          b += k * s;
+          s *= blocks_[a];
+        }
+        particle_block_[p] = b;
+        ++cursor[b];
+      }
+      range_first_block_[r] = first;
+      range_last_block_[r] = last;
+    } else if (phase == Prefix && r == 0) {  // serial, and short: one pass over the blocks
+      int placed = 0;
+      for (int b = 0; b < block_count; ++b) {
+        block_start_[b] = placed;
+        for (int range = 0; range < parts_; ++range)
+          placed +=
+              std::exchange(range_cursor_[static_cast<size_t>(range) * block_count + b], placed);
+      }
+      block_start_[block_count] = placed;
+    } else if (phase == Place) {
+      for (int p = rangeStart(r); p < rangeStart(r + 1); ++p)
+        order_[cursor[particle_block_[p]]++] = p;
+    }
   });
   splitRows();
 
@@ -185,11 +188,16 @@ int MpmSolver<D>::rowPhase(int row) const {
 
 template <int D>
 template <class F>
-void MpmSolver<D>::forEachPart(F&& f) {
+void MpmSolver<D>::forEachPart(int phases, F&& f) {
 #pragma omp parallel num_threads(parts_) if (parallel_)
   {
     const int team = omp_get_num_threads();  // the runtime may grant fewer threads than asked
-    for (int part = omp_get_thread_num(); part < parts_; part += team) f(part);
+    for (int phase = 0; phase < phases; ++phase) {
+      if (phase > 0) {
+#pragma omp barrier
+      }
+      for (int part = omp_get_thread_num(); part < parts_; part += team) f(part, phase);
+    }
   }
 }
 
@@ -203,12 +211,8 @@ void MpmSolver<D>::forActiveNodes(F&& f) {
 
 template <int D>
 void MpmSolver<D>::scatter(Real dt) {
-  // Only the last scatter's box holds anything: clearing it zeroes the whole grid.
-  const int stale = filled_.count();
-#pragma omp parallel for schedule(static) if (parallel_)
-  for (int n = 0; n < stale; ++n) fields_.clearNode(filled_.flatIndex(grid_, n));
-  filled_ = active_;
   withKernel(params_.kernel, [&]<class Kernel>() { scatterWith<Kernel>(dt); });
+  filled_ = active_;
 }
 
 template <int D>
@@ -226,49 +230,56 @@ void MpmSolver<D>::scatterWith(Real dt) {
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
   const bool mls = params_.transfer == MpmTransfer::Mls;
-  for (int phase = 0; phase < (1 << (D - 1)); ++phase)
-    forEachPart([&](int part) {
-      for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
-        if (rowPhase(row) != phase) continue;
-        for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
-          const int p = order_[o];
-          const Vec<D>& x = particles_.x[p];
-          const Real m = particles_.mass[p];
-          const Vec<D> mv = m * particles_.v[p];
-          // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
-          // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq.
-          // 18).
-          const Real V0 = particles_.volume[p];
-          const Mat<D> stress =
-              V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
-                     : Mat<D>::Zero();
-          const Stencil<D, Kernel> s(x, inv_h);
-          if (mls) {
-            // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
-            // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), mass and momentum
-            // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
-            const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
-            TensorStencil<D, Kernel>(grid_, s, x)
-                .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
-                  fields_.mass[k] += w * m;
-                  fields_.velocity[k] += w * momentum;
-                });
-            continue;
-          }
-          const Mat<D> mC = m * C_[p];
-          visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
-            const int k = node.index;
-            const Real w = s.weightAt(node.offset);
-            fields_.mass[k] += w * m;
-            // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
-            Vec<D> momentum = mv;
-            if (affine) momentum.noalias() += mC * node.dx;
-            fields_.velocity[k] += w * momentum;
-            fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
-          });
+  // Phase 0 clears the last scatter's box (only it holds anything: that zeroes the whole grid),
+  // phase 1 + c scatters the rows of parity c.
+  const long stale = filled_.count();
+  forEachPart(1 + (1 << (D - 1)), [&](int part, int phase) {
+    if (phase == 0) {
+      for (long n = stale * part / parts_; n < stale * (part + 1) / parts_; ++n)
+        fields_.clearNode(filled_.flatIndex(grid_, n));
+      return;
+    }
+    for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
+      if (rowPhase(row) != phase - 1) continue;
+      for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
+        const int p = order_[o];
+        const Vec<D>& x = particles_.x[p];
+        const Real m = particles_.mass[p];
+        const Vec<D> mv = m * particles_.v[p];
+        // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (paper eq. 7), with the Kirchhoff
+        // stress tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq.
+        // 18).
+        const Real V0 = particles_.volume[p];
+        const Mat<D> stress =
+            V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(F_E_[p], R_E_[p], lame(p)))
+                   : Mat<D>::Zero();
+        const Stencil<D, Kernel> s(x, inv_h);
+        if (mls) {
+          // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
+          // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), mass and momentum
+          // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
+          const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
+          TensorStencil<D, Kernel>(grid_, s, x)
+              .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
+                fields_.mass[k] += w * m;
+                fields_.velocity[k] += w * momentum;
+              });
+          continue;
         }
+        const Mat<D> mC = m * C_[p];
+        visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+          const int k = node.index;
+          const Real w = s.weightAt(node.offset);
+          fields_.mass[k] += w * m;
+          // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
+          Vec<D> momentum = mv;
+          if (affine) momentum.noalias() += mC * node.dx;
+          fields_.velocity[k] += w * momentum;
+          fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
+        });
       }
-    });
+    }
+  });
 }
 
 template <int D>
@@ -376,7 +387,7 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   // A thread takes the part it scattered, in the scatter's order: the grid nodes it gathers from
   // and the particle data are still in its cache. The energy is summed per row of blocks, then
   // the rows in order: the same sum on any thread count.
-  forEachPart([&](int part) {
+  forEachPart(1, [&](int part, int) {
     PartMeasure m;
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
       Real energy = 0;

@@ -81,8 +81,10 @@ class MpmSolver final : public Solver<D> {
   void splitRows();  // part_rows_ from the sorted particles
   int rowPhase(int row) const;
   int rowFirstParticle(int row) const { return block_start_[row * blocks_[0]]; }
+  // f(part, phase) for each part, in parallel for large scenes, phase by phase: all parts finish a
+  // phase before any starts the next. One parallel region for all phases.
   template <class F>
-  void forEachPart(F&& f);  // f(part) for each part, in parallel for large scenes
+  void forEachPart(int phases, F&& f);
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }

@@ -162,8 +162,9 @@ class MpmSolver final : public Solver<D> {
   int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
-  // Threads only pay off from a few thousand particles: below, waking the threads for the ten or so
-  // parallel loops of a step costs more than they share (README, "Speed", for the measured ratios).
+  // Threads only pay off from a few thousand particles: below, waking the threads for the four
+  // parallel regions of an explicit step costs more than they share (README, "Speed", for the
+  // measured ratios).
   static constexpr int parallel_min_particles = 2048;
   bool parallel_ = false;
   long steps_ = 0;

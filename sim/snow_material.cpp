@@ -12,6 +12,16 @@ Lame hardenedLame(const SnowMaterial& m, Real J_P) {
 
 namespace {
 
+// The cofactor matrix det(F) F^-T, which stays finite for singular F: its columns are the cross
+// products of F's other two columns.
+Mat<3> cofactor3(const Mat<3>& F) {
+  Mat<3> cofactor;
+  cofactor.col(0) = F.col(1).cross(F.col(2));
+  cofactor.col(1) = F.col(2).cross(F.col(0));
+  cofactor.col(2) = F.col(0).cross(F.col(1));
+  return cofactor;
+}
+
 // 2x2 polar rotation in closed form: R is the rotation by atan2(c - b, a + d) for F = [a b; c d]
 // (the rotation closest to F in the Frobenius norm).
 Mat<2> polar2(const Mat<2>& F) {
@@ -181,9 +191,7 @@ Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame) {
   if constexpr (D == 2) {
     JFinvT << F_E(1, 1), -F_E(1, 0), -F_E(0, 1), F_E(0, 0);
   } else {
-    JFinvT.col(0) = F_E.col(1).cross(F_E.col(2));
-    JFinvT.col(1) = F_E.col(2).cross(F_E.col(0));
-    JFinvT.col(2) = F_E.col(0).cross(F_E.col(1));
+    JFinvT = cofactor3(F_E);
   }
   return 2 * lame.mu * (F_E - R) + lame.lambda * (J - 1) * JFinvT;
 }
@@ -248,10 +256,7 @@ namespace {
 bool newtonPolar3(const Mat<3>& F, Mat<3>& R) {
   Mat<3> X = F;
   for (int iteration = 0; iteration < 8; ++iteration) {
-    Mat<3> cofactor;  // det X X^-T
-    cofactor.col(0) = X.col(1).cross(X.col(2));
-    cofactor.col(1) = X.col(2).cross(X.col(0));
-    cofactor.col(2) = X.col(0).cross(X.col(1));
+    const Mat<3> cofactor = cofactor3(X);  // det X X^-T
     const Real det = X.col(0).dot(cofactor.col(0));
     if (!(det > 0)) return false;
     const Mat<3> next = Real(0.5) * (X + cofactor / det);

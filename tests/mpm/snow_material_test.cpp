@@ -80,6 +80,28 @@ TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
   EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
 }
 
+// Checks what a return mapping made of F starting from J_P = 0.8 (F_E, J_P, R_E) against the SVD
+// definition: clamp U sigma V^T, J_P' = J_P det F / det F_E', R_E = U V^T; F_E kept bit for bit
+// when nothing is clamped. Returns whether nothing was.
+template <int D>
+bool expectSvdDefinition(const SnowMaterial& m, const Mat<D>& F, const Mat<D>& F_E, Real J_P,
+                         const Mat<D>& R_E, Real tolerance) {
+  Mat<D> U, V;
+  Vec<D> sigma;
+  signedSvd<D>(F, U, sigma, V);
+  const Vec<D> clamped = sigma.cwiseMax(1 - m.theta_c).cwiseMin(1 + m.theta_s);
+  const Mat<D> expected_F_E = U * clamped.asDiagonal() * V.transpose();
+  const Real expected_J_P = 0.8 * F.determinant() / expected_F_E.determinant();
+  EXPECT_LT((F_E - expected_F_E).norm(), tolerance) << F;
+  EXPECT_NEAR(J_P, expected_J_P, tolerance) << F;
+  EXPECT_LT((R_E - U * V.transpose()).norm(), tolerance) << F;
+  const bool unclamped = clamped == sigma;
+  if (unclamped) {
+    EXPECT_EQ(F_E, F) << "unclamped F_E is kept bit for bit";
+  }
+  return unclamped;
+}
+
 // The 2D return mapping works through the polar decomposition instead of the SVD: it must give
 // what the SVD definition gives (clamp U sigma V^T, J_P' = J_P det F_E / det F_E'), including
 // inverted and unstrained F.
@@ -99,21 +121,9 @@ TEST(SnowMaterial, TwoDimensionalReturnMappingMatchesTheSvdDefinition) {
   inverted << 1, 0, 0, -0.5;
   cases.push_back(inverted);
   for (const Mat<2>& F : cases) {
-    Mat<2> U, V;
-    Vec<2> sigma;
-    signedSvd<2>(F, U, sigma, V);
-    const Vec<2> clamped = sigma.cwiseMax(1 - m.theta_c).cwiseMin(1 + m.theta_s);
-    const Mat<2> expected_F_E = U * clamped.asDiagonal() * V.transpose();
-    const Real expected_J_P = 0.8 * F.determinant() / expected_F_E.determinant();
-
     Mat<2> F_E = F, R_E;
     const Real J_P = plasticReturnMappingJ(m, F_E, 0.8, R_E);
-    EXPECT_LT((F_E - expected_F_E).norm(), 1e-13) << F;
-    EXPECT_NEAR(J_P, expected_J_P, 1e-13) << F;
-    EXPECT_LT((R_E - U * V.transpose()).norm(), 1e-13) << F;
-    if (clamped == sigma) {
-      EXPECT_EQ(F_E, F) << "unclamped F_E is kept bit for bit";
-    }
+    expectSvdDefinition<2>(m, F, F_E, J_P, R_E, 1e-13);
   }
 }
 
@@ -145,21 +155,10 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
   cases.push_back(Vec<3>(1, 1, -0.5).asDiagonal());  // inverted
   int elastic = 0;
   for (const Mat<3>& F : cases) {
-    Mat<3> U, V;
-    Vec<3> sigma;
-    signedSvd<3>(F, U, sigma, V);
-    const Vec<3> clamped = sigma.cwiseMax(1 - m.theta_c).cwiseMin(1 + m.theta_s);
-    const Mat<3> expected_F_E = U * clamped.asDiagonal() * V.transpose();
-    const Real expected_J_P = 0.8 * F.determinant() / expected_F_E.determinant();
-
     Mat<3> F_E = F, R_E, V_E = Mat<3>::Identity();
     const Real J_P = plasticReturnMappingJ(m, F_E, 0.8, R_E, V_E);
-    EXPECT_LT((F_E - expected_F_E).norm(), 1e-12) << F;
-    EXPECT_NEAR(J_P, expected_J_P, 1e-12) << F;
-    EXPECT_LT((R_E - U * V.transpose()).norm(), 1e-12) << F;
-    if (clamped == sigma) {
+    if (expectSvdDefinition<3>(m, F, F_E, J_P, R_E, 1e-12)) {
       ++elastic;
-      EXPECT_EQ(F_E, F) << "unclamped F_E is kept bit for bit";
       EXPECT_EQ(J_P, 0.8);
     }
   }

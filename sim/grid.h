@@ -91,11 +91,6 @@ struct GridFields {
     std::fill(velocity.begin(), velocity.end(), Vec<D>::Zero());
     std::fill(force.begin(), force.end(), Vec<D>::Zero());
   }
-  void clearNode(int k) {
-    mass[k] = 0;
-    velocity[k].setZero();
-    force[k].setZero();
-  }
 };
 
 }  // namespace snowsim

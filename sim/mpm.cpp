@@ -55,10 +55,17 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
     block_count *= blocks_[a];
   }
   block_start_.assign(block_count + 1, 0);
-  row_energy_.resize(block_count / blocks_[0]);
+  chunk_energy_.resize((n + energy_chunk - 1) / energy_chunk);
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
+  partial_.resize(colours);
+  for (PartialGrid& g : partial_) {
+    g.mass.assign(grid_.nodeCount(), 0);
+    g.momentum.assign(grid_.nodeCount(), Vec<D>::Zero());
+    if (params_.transfer != MpmTransfer::Mls) g.force.assign(grid_.nodeCount(), Vec<D>::Zero());
+  }
   binParticles();
   scatter(0);
+  updateGridVelocities(0);  // the grid's mass, for the volumes
   computeParticleVolumes();
   for (int p = 0; p < n; ++p) total_mass_ += particles_.mass[p];
   for (const Collider<D>& c : colliders_) colliders_move_ = colliders_move_ || !c.velocity.isZero();
@@ -177,13 +184,13 @@ void MpmSolver<D>::splitRows() {
 }
 
 template <int D>
-int MpmSolver<D>::rowPhase(int row) const {
-  int phase = 0;
+int MpmSolver<D>::rowColour(int row) const {
+  int colour = 0;
   for (int a = 1; a < D; ++a) {
-    phase |= (row % blocks_[a] % 2) << (a - 1);
+    colour |= (row % blocks_[a] % 2) << (a - 1);
     row /= blocks_[a];
   }
-  return phase;
+  return colour;
 }
 
 template <int D>
@@ -210,9 +217,64 @@ void MpmSolver<D>::forActiveNodes(F&& f) {
 }
 
 template <int D>
-void MpmSolver<D>::scatter(Real dt) {
-  withKernel(params_.kernel, [&]<class Kernel>() { scatterWith<Kernel>(dt); });
+template <class F>
+void MpmSolver<D>::forScatteredNodes(F&& f) {
+  NodeBox<D> box = active_;
+  if (filled_.count() > 0) {
+    box.lo = box.lo.cwiseMin(filled_.lo);
+    box.hi = box.hi.cwiseMax(filled_.hi);
+  }
   filled_ = active_;
+  partials_pending_ = false;  // f sums and clears them
+  // A part takes the lines of nodes along x that lie in its rows of blocks: the nodes its thread
+  // scattered to, still in its cache (splitting the box evenly instead costs twice the time on
+  // two threads, the nodes moving from one core's cache to the other).
+  const int width = box.hi[0] - box.lo[0];
+  const int lines = width > 0 ? box.count() / width : 0;
+  forEachPart(1, [&](int part, int) {
+    for (int line = 0; line < lines; ++line) {
+      const int first = box.flatIndex(grid_, line * width);
+      const IVec<D> node = grid_.coords(first);
+      int row = 0;
+      for (int a = D - 1; a >= 1; --a) {
+        const int block = std::clamp(node[a] / block_cells, 0, blocks_[a] - 1);
+        row = row * blocks_[a] + block;
+      }
+      if (row < part_rows_[part] || row >= part_rows_[part + 1]) continue;
+      for (int i = 0; i < width; ++i) f(first + i);  // x is the grid's contiguous axis
+    }
+  });
+}
+
+template <int D>
+void MpmSolver<D>::scatter(Real dt) {
+  if (partials_pending_) {  // a second scatter with no grid stage between: it replaces the first
+    for (PartialGrid& g : partial_) {
+      std::fill(g.mass.begin(), g.mass.end(), Real(0));
+      std::fill(g.momentum.begin(), g.momentum.end(), Vec<D>::Zero());
+      std::fill(g.force.begin(), g.force.end(), Vec<D>::Zero());
+    }
+  }
+  withKernel(params_.kernel, [&]<class Kernel>() { scatterWith<Kernel>(dt); });
+  partials_pending_ = true;
+}
+
+template <int D>
+void MpmSolver<D>::sumPartialGrids(int k) {
+  Real mass = 0;
+  Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
+  for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
+    mass += std::exchange(g.mass[k], 0);
+    momentum += g.momentum[k];
+    g.momentum[k].setZero();
+    if (!g.force.empty()) {
+      force += g.force[k];
+      g.force[k].setZero();
+    }
+  }
+  fields_.mass[k] = mass;
+  fields_.velocity[k] = momentum;
+  fields_.force[k] = force;
 }
 
 template <int D>
@@ -230,17 +292,9 @@ void MpmSolver<D>::scatterWith(Real dt) {
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
   const bool mls = params_.transfer == MpmTransfer::Mls;
-  // Phase 0 clears the last scatter's box (only it holds anything: that zeroes the whole grid),
-  // phase 1 + c scatters the rows of parity c.
-  const long stale = filled_.count();
-  forEachPart(1 + (1 << (D - 1)), [&](int part, int phase) {
-    if (phase == 0) {
-      for (long n = stale * part / parts_; n < stale * (part + 1) / parts_; ++n)
-        fields_.clearNode(filled_.flatIndex(grid_, n));
-      return;
-    }
+  forEachPart(1, [&](int part, int) {
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
-      if (rowPhase(row) != phase - 1) continue;
+      PartialGrid& g = partial_[rowColour(row)];
       for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
         const int p = order_[o];
         const Vec<D>& x = particles_.x[p];
@@ -261,8 +315,8 @@ void MpmSolver<D>::scatterWith(Real dt) {
           const Mat<D> A = m * C_[p] + (dt * D_inv) * stress;
           TensorStencil<D, Kernel>(grid_, s, x)
               .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
-                fields_.mass[k] += w * m;
-                fields_.velocity[k] += w * momentum;
+                g.mass[k] += w * m;
+                g.momentum[k] += w * momentum;
               });
           continue;
         }
@@ -270,12 +324,12 @@ void MpmSolver<D>::scatterWith(Real dt) {
         visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
           const int k = node.index;
           const Real w = s.weightAt(node.offset);
-          fields_.mass[k] += w * m;
+          g.mass[k] += w * m;
           // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
           Vec<D> momentum = mv;
           if (affine) momentum.noalias() += mC * node.dx;
-          fields_.velocity[k] += w * momentum;
-          fields_.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
+          g.momentum[k] += w * momentum;
+          g.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
         });
       }
     }
@@ -328,7 +382,8 @@ void MpmSolver<D>::collideNode(int k) {
 
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
-  forActiveNodes([&](int k) {
+  forScatteredNodes([&](int k) {
+    sumPartialGrids(k);
     velocityFromMomentum(k);
     accelerate(k, dt);
   });
@@ -336,7 +391,8 @@ void MpmSolver<D>::updateGridVelocities(Real dt) {
 
 template <int D>
 void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
-  forActiveNodes([&](int k) {  // one pass: each node is loaded once for the three
+  forScatteredNodes([&](int k) {  // one pass: each node is loaded once for the four
+    sumPartialGrids(k);
     velocityFromMomentum(k);
     accelerate(k, dt);
     collideNode(k);
@@ -384,20 +440,21 @@ void MpmSolver<D>::updateParticlesWith(Real dt) {
 template <int D>
 template <class F>
 void MpmSolver<D>::passOverParticles(F&& update) {
-  // A thread takes the part it scattered, in the scatter's order: the grid nodes it gathers from
-  // and the particle data are still in its cache. The energy is summed per row of blocks, then
-  // the rows in order: the same sum on any thread count.
+  // The particles in the scatter's order, cut into equal parts: a thread gathers from the grid
+  // nodes its part of the rows scattered to, still in its cache. The energy is summed per chunk
+  // of the order, then the chunks in order: the same sum on any thread count.
+  const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
   forEachPart(1, [&](int part, int) {
     PartMeasure m;
-    for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
+    for (int chunk = chunks * part / parts_; chunk < chunks * (part + 1) / parts_; ++chunk) {
       Real energy = 0;
-      for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
+      for (int o = chunk * energy_chunk; o < std::min(n, (chunk + 1) * energy_chunk); ++o) {
         const int p = order_[o];
         update(p);
         measure(p, m);
         energy += particleEnergy(p);
       }
-      row_energy_[row] = energy;
+      chunk_energy_[chunk] = energy;
     }
     part_measures_[part] = m;
   });
@@ -409,7 +466,7 @@ void MpmSolver<D>::passOverParticles(F&& update) {
     finite_ = finite_ && part_measures_[part].finite;
   }
   Real energy = 0;
-  for (const Real row : row_energy_) energy += row;
+  for (const Real chunk : chunk_energy_) energy += chunk;
   // The gravitational energy counts from the domain's lowest point along gravity, so it is >= 0.
   Real lowest = 0;  // min over the domain box of -g.x
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);

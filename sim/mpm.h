@@ -48,11 +48,12 @@ class MpmSolver final : public Solver<D> {
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
-  // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7); the grid velocity holds the momentum.
+  // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7) into the partial grids of the rows.
   void scatter(Real dt);
-  // 2. First step only: rho_p^0, V_p^0 (section 4 step 2).
+  // 2. First step only, after updateGridVelocities: rho_p^0, V_p^0 (section 4 step 2).
   void computeParticleVolumes();
-  // 4. After scatter: v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
+  // 4. After scatter: the grid's mass, momentum and force are the sums of the partial grids,
+  // v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
   void updateGridVelocities(Real dt);
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -63,6 +64,7 @@ class MpmSolver final : public Solver<D> {
 
  private:
   // Per grid node k, after the scatter: what stages 1, 4 and 5 do to it.
+  void sumPartialGrids(int k);  // and clears them for the next scatter
   void velocityFromMomentum(int k);
   void accelerate(int k, Real dt);  // eq. 8 explicit, plus gravity
   void collideNode(int k);
@@ -79,7 +81,7 @@ class MpmSolver final : public Solver<D> {
 
   void binParticles();
   void splitRows();  // part_rows_ from the sorted particles
-  int rowPhase(int row) const;
+  int rowColour(int row) const;
   int rowFirstParticle(int row) const { return block_start_[row * blocks_[0]]; }
   // f(part, phase) for each part, in parallel for large scenes, phase by phase: all parts finish a
   // phase before any starts the next. One parallel region for all phases.
@@ -87,6 +89,10 @@ class MpmSolver final : public Solver<D> {
   void forEachPart(int phases, F&& f);
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
+  // The grid stage after a scatter: f(k) for each node of active_ and of the last box it wrote,
+  // which leaves nothing outside active_.
+  template <class F>
+  void forScatteredNodes(F&& f);
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
 
   struct PartMeasure {  // the fastest particles of one part
@@ -115,11 +121,22 @@ class MpmSolver final : public Solver<D> {
   GridFields<D> fields_;
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene
-  // Deterministic parallel P2G: particles binned into blocks of 4^D cells, sorted by block, in
-  // index order within a block. A row of blocks along x is the unit of work. Rows go in 2^(D-1)
-  // phases by the parity of their y (and z) block index, so the rows of a phase are a block apart
-  // and write no common node; each node sums its particles in one order on any thread count.
-  static constexpr int block_cells = 4;
+  // Deterministic parallel P2G: particles binned into blocks of block_cells^D cells, sorted by
+  // block, in index order within a block. A row of blocks along x is the unit of work. Each row
+  // scatters into the partial grid of its colour, the parity of its y (and z) block index: a
+  // particle of cell c reaches nodes c-1 .. c+2, so rows of one colour, a row of at least 3 cells
+  // apart, write no common node. A node of a partial grid sums the particles of one row, in sorted
+  // order, and the grid sums the partial grids in colour order: the same sums on any thread
+  // count, and the rows need no order among them. Rows 3 cells tall in 2D give the threads more
+  // rows to share; 3D has rows enough, and its larger blocks sort faster.
+  static constexpr int block_cells = D == 2 ? 3 : 4;
+  static constexpr int colours = 1 << (D - 1);
+  struct PartialGrid {
+    std::vector<Real> mass;
+    std::vector<Vec<D>> momentum, force;
+  };
+  std::vector<PartialGrid> partial_;  // one per colour
+  bool partials_pending_ = false;     // scattered to, not yet summed into the grid
   IVec<D> blocks_;
   std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
   std::vector<int> order_;
@@ -138,17 +155,18 @@ class MpmSolver final : public Solver<D> {
   std::vector<IVec<D>> range_first_block_, range_last_block_;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
-  // Nodes outside stay zero (scatter clears what it wrote last time).
+  // Nodes outside stay zero (the grid stage after a scatter clears what it wrote last time).
   NodeBox<D> active_;
-  NodeBox<D> filled_;  // the nodes the last scatter wrote, to clear before the next
+  NodeBox<D> filled_;  // the active_ of the last scatter
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.
-  Real fastest_speed_ = 0;        // max |v_p|
-  Real fastest_signal_ = 0;       // max (c_p + |v_p|), c_p the P-wave speed
-  bool finite_ = true;            // every position and velocity finite
-  Real energy_ = 0;               // kinetic + gravitational (J), see passOverParticles
-  std::vector<Real> row_energy_;  // per row of blocks, for a thread-count independent total
+  Real fastest_speed_ = 0;                 // max |v_p|
+  Real fastest_signal_ = 0;                // max (c_p + |v_p|), c_p the P-wave speed
+  bool finite_ = true;                     // every position and velocity finite
+  Real energy_ = 0;                        // kinetic + gravitational (J), see passOverParticles
+  static constexpr int energy_chunk = 64;  // particles, in sorted order
+  std::vector<Real> chunk_energy_;         // for a thread-count independent total
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
   bool colliders_move_ = false;  // a moving collider adds energy: no energy check then

@@ -122,6 +122,7 @@ void checkSymmetry(const std::string& transfer) {
   const Scene scene = parseScene(j, "test.json");
   MpmSolver<D> solver(scene, sampleBodies<D>(scene));
   solver.scatter(0);
+  solver.updateGridVelocities(0);  // the grid's mass
   std::mt19937 rng(11);
   const int n = solver.particles().size();
   std::vector<Mat<D>> F(n);

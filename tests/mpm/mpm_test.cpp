@@ -231,6 +231,28 @@ TEST(Mpm, EmptySpaceAroundTheSnowCostsNothingAndChangesNothing) {
   }
 }
 
+TEST(Mpm, ScatteringTwiceGivesTheGridOfOneScatter) {
+  // The stages are public: a second scatter before the grid stage replaces the first, it does
+  // not add to it.
+  for (const char* transfer : {"pic_flip", "mls"}) {
+    Json j = baseScene();
+    j["bodies"][0]["velocity"] = {1, -2};
+    j["mpm"] = {{"transfer", transfer}};
+    auto once = makeSolver<2>(j), twice = makeSolver<2>(j);
+    once.scatter(0);
+    once.updateGridVelocities(0);
+    twice.scatter(0);
+    twice.scatter(0);
+    twice.updateGridVelocities(0);
+    Real mass = 0;
+    for (const Real m : once.fields().mass) mass += m;
+    EXPECT_GT(mass, 0) << transfer;
+    EXPECT_EQ(once.fields().mass, twice.fields().mass) << transfer;
+    EXPECT_EQ(once.fields().velocity, twice.fields().velocity) << transfer;
+    EXPECT_EQ(once.fields().force, twice.fields().force) << transfer;
+  }
+}
+
 TEST(Mpm, ExplicitAboveTheCflLimitIsStopped) {
   // Measured on the snowball drop: explicit MPM is stable at a fixed dt of 0.001 s and blows up
   // at 0.0015 s; 0.003 s is well beyond.
@@ -303,21 +325,24 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   j["bodies"][0]["radius"] = 0.1;
   j["particles_per_cell"] = 16;  // > 4096 particles: the threaded path runs
   j["grid"]["cells"] = {40, 30};
-  auto runWith = [&](int threads) {
-    omp_set_num_threads(threads);
-    auto s = makeSolver<2>(j);
-    run(s, 0.004);
-    return s.particles().x;
-  };
-  // Three threads on two cores: the work splits unevenly and the threads take turns.
-  const auto a = runWith(1), b = runWith(1), c = runWith(2), d = runWith(3);
-  omp_set_num_threads(omp_get_num_procs());
-  ASSERT_EQ(a.size(), c.size());
-  ASSERT_EQ(a.size(), d.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i], b[i]);
-    EXPECT_EQ(a[i], c[i]);
-    EXPECT_EQ(a[i], d[i]);
+  for (const char* transfer : {"pic_flip", "mls"}) {  // PIC/FLIP scatters forces too
+    j["mpm"] = {{"transfer", transfer}};
+    auto runWith = [&](int threads) {
+      omp_set_num_threads(threads);
+      auto s = makeSolver<2>(j);
+      run(s, 0.004);
+      return s.particles().x;
+    };
+    // Three threads on two cores: the work splits unevenly and the threads take turns.
+    const auto a = runWith(1), b = runWith(1), c = runWith(2), d = runWith(3);
+    omp_set_num_threads(omp_get_num_procs());
+    ASSERT_EQ(a.size(), c.size());
+    ASSERT_EQ(a.size(), d.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i], b[i]) << transfer;
+      EXPECT_EQ(a[i], c[i]) << transfer;
+      EXPECT_EQ(a[i], d[i]) << transfer;
+    }
   }
 }
 

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -13,6 +14,8 @@
 namespace snowsim {
 
 namespace {
+
+using Clock = std::chrono::steady_clock;
 
 // D_p^{-1} of APIC (Jiang et al. 2015, eq. after 11): 4 / h^2 for quadratic, 3 / h^2 for cubic.
 template <class Kernel>
@@ -108,6 +111,9 @@ void MpmSolver<D>::binParticles() {
   if (static_cast<int>(part_rows_.size()) < parts_ + 1) {  // first step, or more threads
     part_rows_.resize(parts_ + 1);
     part_measures_.resize(parts_);
+    part_speed_.assign(parts_, 1);
+    part_share_.resize(parts_ + 1);
+    sharePartsBySpeed();
     range_cursor_.resize(static_cast<size_t>(parts_) * block_count);
     range_first_block_.resize(parts_);
     range_last_block_.resize(parts_);
@@ -116,16 +122,14 @@ void MpmSolver<D>::binParticles() {
   // Counting sort, each part on one contiguous range of particle indices: count per block, a
   // prefix sum over (block, range) gives each range its place in each block, each range places
   // its particles. A stable sort: its result does not depend on how the particles were split.
-  const auto rangeStart = [&](int r) {
-    return static_cast<int>(static_cast<long>(n) * r / parts_);
-  };
+  const auto rangeStart = [&](int r) { return static_cast<int>(std::lround(n * part_share_[r])); };
   enum Phase { Count, Prefix, Place };
   forEachPart(3, [&](int r, int phase) {
     int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
     if (phase == Count) {
       std::fill(cursor, cursor + block_count, 0);
       IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
-      for (int p = rangeStart(r); p < rangeStart(r + 1); ++p) {
+      for (int p = rangeStart(r), end = rangeStart(r + 1); p < end; ++p) {
         int b = 0, s = 1;
         for (int a = 0; a < D; ++a) {
           const int k =
@@ -150,7 +154,7 @@ void MpmSolver<D>::binParticles() {
       }
       block_start_[block_count] = placed;
     } else if (phase == Place) {
-      for (int p = rangeStart(r); p < rangeStart(r + 1); ++p)
+      for (int p = rangeStart(r), end = rangeStart(r + 1); p < end; ++p)
         order_[cursor[particle_block_[p]]++] = p;
     }
   });
@@ -177,7 +181,12 @@ void MpmSolver<D>::splitRows() {
   part_rows_[0] = 0;
   int row = 0;
   for (int t = 1; t < parts_; ++t) {
-    while (row < rows && rowFirstParticle(row) < n * t / parts_) ++row;
+    const long target = std::lround(n * part_share_[t]);
+    while (row < rows && rowFirstParticle(row) < target) ++row;
+    // The row across the target goes to the part that holds more of it.
+    if (row > part_rows_[t - 1] &&
+        target - rowFirstParticle(row - 1) < rowFirstParticle(row) - target)
+      --row;
     part_rows_[t] = row;
   }
   part_rows_[parts_] = rows;
@@ -440,13 +449,18 @@ void MpmSolver<D>::updateParticlesWith(Real dt) {
 template <int D>
 template <class F>
 void MpmSolver<D>::passOverParticles(F&& update) {
-  // The particles in the scatter's order, cut into equal parts: a thread gathers from the grid
-  // nodes its part of the rows scattered to, still in its cache. The energy is summed per chunk
-  // of the order, then the chunks in order: the same sum on any thread count.
+  // The particles in the scatter's order, cut at the parts' shares: a thread gathers from the
+  // grid nodes its part of the rows scattered to, still in its cache. The energy is summed per
+  // chunk of the order, then the chunks in order: the same sum on any thread count.
   const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
+  const auto firstChunk = [&](int part) {
+    return static_cast<int>(std::lround(chunks * part_share_[part]));
+  };
   forEachPart(1, [&](int part, int) {
+    const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
-    for (int chunk = chunks * part / parts_; chunk < chunks * (part + 1) / parts_; ++chunk) {
+    const int first = firstChunk(part), last = firstChunk(part + 1);
+    for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
       for (int o = chunk * energy_chunk; o < std::min(n, (chunk + 1) * energy_chunk); ++o) {
         const int p = order_[o];
@@ -456,8 +470,13 @@ void MpmSolver<D>::passOverParticles(F&& update) {
       }
       chunk_energy_[chunk] = energy;
     }
+    if (parallel_) {
+      m.particles = std::min(n, last * energy_chunk) - std::min(n, first * energy_chunk);
+      m.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    }
     part_measures_[part] = m;
   });
+  if (parallel_) sharePartsBySpeed();
   fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
   for (int part = 0; part < parts_; ++part) {  // maxima: exact in any order
@@ -471,6 +490,36 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   Real lowest = 0;  // min over the domain box of -g.x
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
   energy_ = energy - total_mass_ * lowest;
+}
+
+template <int D>
+void MpmSolver<D>::sharePartsBySpeed() {
+  const auto rate = [&](int part) {  // particles per second, 0 if the part had none
+    const PartMeasure& m = part_measures_[part];
+    return m.particles > 0 && m.seconds > 0 ? m.particles / m.seconds : 0.0;
+  };
+  double mean = 0;
+  int measured = 0;
+  for (int part = 0; part < parts_; ++part)
+    if (rate(part) > 0) mean += rate(part), ++measured;
+  // A part's speed is its rate over the parts' mean, bounded and smoothed over steps, so that one
+  // preempted step does not move the split much; a part that had no particles is tried again at
+  // the mean.
+  if (measured > 0) {
+    mean /= measured;
+    for (int part = 0; part < parts_; ++part) {
+      const double relative = rate(part) > 0 ? std::clamp(rate(part) / mean, 0.25, 4.0) : 1.0;
+      part_speed_[part] = 0.75 * part_speed_[part] + 0.25 * relative;
+    }
+  }
+  double total = 0;
+  for (int part = 0; part < parts_; ++part) total += part_speed_[part];
+  double sum = 0;
+  for (int part = 0; part < parts_; ++part) {
+    part_share_[part] = sum / total;
+    sum += part_speed_[part];
+  }
+  part_share_[parts_] = 1;
 }
 
 template <int D>

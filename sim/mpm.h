@@ -95,14 +95,17 @@ class MpmSolver final : public Solver<D> {
   void forScatteredNodes(F&& f);
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
 
-  struct PartMeasure {  // the fastest particles of one part
+  struct PartMeasure {  // the fastest particles of one part, and how long the part took
     Real speed = 0, signal = 0;
     bool finite = true;
+    int particles = 0;
+    double seconds = 0;
   };
   // update(p) for each particle, part by part, then the speeds and the energy they leave.
   template <class F>
   void passOverParticles(F&& update);
-  void measureParticles();  // the speeds and energy of the current state
+  void measureParticles();   // the speeds and energy of the current state
+  void sharePartsBySpeed();  // part_share_ from part_speed_ and the last pass's times
   void measure(int p, PartMeasure& m) const;
   Real particleEnergy(int p) const;
   void checkBlowUp(Real dt) const;
@@ -141,12 +144,18 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
   std::vector<int> order_;
   std::vector<int> particle_block_;
-  // The work is cut into parts, one per thread, each a run of whole rows holding about the same
-  // number of particles: part t has rows part_rows_[t] .. part_rows_[t + 1]. The scatter and the
-  // particle pass give a thread the same part, so the particles and the grid nodes a thread writes
-  // in one stage are the ones it reads in the next, from its own cache.
+  // The work is cut into parts, one per thread. In the scatter and the grid stage part t has the
+  // rows part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same
+  // shares, so the particles and the grid nodes a thread writes in one stage are mostly the ones
+  // it reads in the next, from its own cache.
   int parts_ = 1;
   std::vector<int> part_rows_;
+  // The threads of a shared machine are not equally fast, and each part's share of the work
+  // follows its thread's measured speed: part t takes the particles from part_share_[t] to
+  // part_share_[t + 1] (fractions of all), the rows split there, and the sorted order too. The
+  // split changes no result.
+  std::vector<double> part_speed_;  // relative to the parts' mean, smoothed over steps
+  std::vector<double> part_share_;
   std::vector<PartMeasure> part_measures_;
   // Counting-sort state per part r, each sorting one contiguous range of particle indices:
   // range_cursor_[r * blocks + b] counts, then places, its particles of block b;

@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -82,6 +83,34 @@ void measure(const char* label, const Json& j, int steps, int reps) {
       one_thread == two_threads ? "yes" : "NO", bytes);
 }
 
+// Nanoseconds for two threads to pass one cache line there and back: what each line costs that
+// one thread writes and the other reads next. On a shared virtual machine it changes with where
+// the two cores sit (the README's speed section); 0 if two threads did not run at once.
+double coreToCoreRoundTrip() {
+  constexpr int trips = 100000;
+  std::atomic<int> ball{0};
+  std::atomic<bool> give_up{false};
+  double seconds = 0;
+#pragma omp parallel num_threads(2)
+  if (omp_get_num_threads() == 2) {
+    const int me = omp_get_thread_num();
+    const auto t0 = std::chrono::steady_clock::now();
+    // Each thread waits for the ball to be on its side, then passes it; a time limit in case
+    // both threads share one core.
+    for (int i = 0; i < trips && !give_up.load(std::memory_order_relaxed); ++i) {
+      for (long spins = 1; ball.load(std::memory_order_acquire) != me; ++spins)
+        if (spins % 4096 == 0 && std::chrono::steady_clock::now() - t0 > std::chrono::seconds(1)) {
+          give_up = true;
+          break;
+        }
+      ball.store(1 - me, std::memory_order_release);
+    }
+    if (me == 0 && !give_up)
+      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return seconds / trips * 1e9;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -93,6 +122,10 @@ int main(int argc, char** argv) {
                  only.c_str());
     return 2;
   }
+  if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
+    std::printf("core-to-core round trip %.0f ns\n", round_trip);
+  else
+    std::printf("core-to-core round trip not measured: two threads did not run at once\n");
   if (only == "all" || only == "2d-small")
     measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44), steps, reps);
   if (only == "all" || only == "2d-large")

@@ -59,13 +59,13 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   }
   block_start_.assign(block_count + 1, 0);
   chunk_energy_.resize((n + energy_chunk - 1) / energy_chunk);
-  // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   partial_.resize(colours);
   for (PartialGrid& g : partial_) {
     g.mass.assign(grid_.nodeCount(), 0);
     g.momentum.assign(grid_.nodeCount(), Vec<D>::Zero());
     if (params_.transfer != MpmTransfer::Mls) g.force.assign(grid_.nodeCount(), Vec<D>::Zero());
   }
+  // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   binParticles();
   scatter(0);
   updateGridVelocities(0);  // the grid's mass, for the volumes
@@ -108,9 +108,9 @@ void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
   const int block_count = static_cast<int>(block_start_.size()) - 1;
   parts_ = parallel_ ? omp_get_max_threads() : 1;
-  if (static_cast<int>(part_rows_.size()) < parts_ + 1) {  // first step, or more threads
+  if (static_cast<int>(part_share_.size()) != parts_ + 1) {  // first step, or another thread count
     part_rows_.resize(parts_ + 1);
-    part_measures_.resize(parts_);
+    part_measures_.assign(parts_, PartMeasure());
     part_speed_.assign(parts_, 1);
     part_share_.resize(parts_ + 1);
     sharePartsBySpeed();

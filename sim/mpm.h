@@ -52,8 +52,8 @@ class MpmSolver final : public Solver<D> {
   void scatter(Real dt);
   // 2. First step only, after updateGridVelocities: rho_p^0, V_p^0 (section 4 step 2).
   void computeParticleVolumes();
-  // 4. After scatter: the grid's mass, momentum and force are the sums of the partial grids,
-  // v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
+  // 4. Once after each scatter: the grid's mass, momentum and force are the sums of the partial
+  // grids (which it clears), v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
   void updateGridVelocities(Real dt);
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -136,7 +136,7 @@ class MpmSolver final : public Solver<D> {
   static constexpr int colours = 1 << (D - 1);
   struct PartialGrid {
     std::vector<Real> mass;
-    std::vector<Vec<D>> momentum, force;
+    std::vector<Vec<D>> momentum, force;  // force stays empty for MLS (its force is in momentum)
   };
   std::vector<PartialGrid> partial_;  // one per colour
   bool partials_pending_ = false;     // scattered to, not yet summed into the grid
@@ -164,7 +164,8 @@ class MpmSolver final : public Solver<D> {
   std::vector<IVec<D>> range_first_block_, range_last_block_;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
-  // Nodes outside stay zero (the grid stage after a scatter clears what it wrote last time).
+  // Nodes outside stay zero: the grid stage after a scatter sums the partial grids over active_
+  // and the last box, which zeroes the nodes active_ no longer covers.
   NodeBox<D> active_;
   NodeBox<D> filled_;  // the active_ of the last scatter
   ImplicitVelocitySolve<D> implicit_;

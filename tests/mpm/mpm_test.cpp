@@ -318,32 +318,51 @@ TEST(Mpm, BadInputNamesTheField) {
   }
 }
 
+// Runs the scene for 4 ms on 1 (twice), 2 and 3 threads, and on 3 threads then 2 on one solver,
+// and expects the same positions bit for bit. Three threads on two cores: the work splits
+// unevenly and the threads take turns.
+template <int D>
+void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) {
+  auto runWith = [&](int threads, int then_threads) {
+    omp_set_num_threads(threads);
+    auto s = makeSolver<D>(j);
+    run(s, 0.002);
+    omp_set_num_threads(then_threads);
+    run(s, 0.002);
+    return s.particles().x;
+  };
+  const auto one = runWith(1, 1), again = runWith(1, 1), two = runWith(2, 2), three = runWith(3, 3),
+             fewer = runWith(3, 2);
+  omp_set_num_threads(omp_get_num_procs());
+  ASSERT_GT(one.size(), 2048u) << what << ": the threaded path must run";
+  EXPECT_TRUE(one == again) << what << ", 1 thread twice";
+  EXPECT_TRUE(one == two) << what << ", 2 threads";
+  EXPECT_TRUE(one == three) << what << ", 3 threads";
+  EXPECT_TRUE(one == fewer) << what << ", 3 threads then 2";
+}
+
 TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {1, -2};
   j["bodies"][0]["center"] = {0.2, 0.15};
   j["bodies"][0]["radius"] = 0.1;
-  j["particles_per_cell"] = 16;  // > 4096 particles: the threaded path runs
+  j["particles_per_cell"] = 16;
   j["grid"]["cells"] = {40, 30};
   for (const char* transfer : {"pic_flip", "mls"}) {  // PIC/FLIP scatters forces too
     j["mpm"] = {{"transfer", transfer}};
-    auto runWith = [&](int threads) {
-      omp_set_num_threads(threads);
-      auto s = makeSolver<2>(j);
-      run(s, 0.004);
-      return s.particles().x;
-    };
-    // Three threads on two cores: the work splits unevenly and the threads take turns.
-    const auto a = runWith(1), b = runWith(1), c = runWith(2), d = runWith(3);
-    omp_set_num_threads(omp_get_num_procs());
-    ASSERT_EQ(a.size(), c.size());
-    ASSERT_EQ(a.size(), d.size());
-    for (size_t i = 0; i < a.size(); ++i) {
-      EXPECT_EQ(a[i], b[i]) << transfer;
-      EXPECT_EQ(a[i], c[i]) << transfer;
-      EXPECT_EQ(a[i], d[i]) << transfer;
-    }
+    expectBitIdenticalOnAnyThreadCount<2>(j, transfer);
   }
+  j["mpm"] = {{"integrator", "semi_implicit"}};
+  expectBitIdenticalOnAnyThreadCount<2>(j, "semi-implicit");
+  // 3D: four colours of rows, blocks of 4^3 cells.
+  j["dimension"] = 3;
+  j["particles_per_cell"] = 8;
+  j["grid"]["cells"] = {40, 30, 12};
+  j["bodies"][0]["center"] = {0.2, 0.15, 0.06};
+  j["bodies"][0]["radius"] = 0.05;
+  j["bodies"][0]["velocity"] = {1, -2, 0.5};
+  j["mpm"] = {{"transfer", "apic"}};
+  expectBitIdenticalOnAnyThreadCount<3>(j, "3D APIC");
 }
 
 // The report's Fig. 8 scene with the MPM solver: the thrown ball (body 1) hits the tower (body 0)

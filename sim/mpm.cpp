@@ -61,9 +61,9 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   chunk_energy_.resize((n + energy_chunk - 1) / energy_chunk);
   partial_.resize(colours);
   for (PartialGrid& g : partial_) {
-    g.mass.assign(grid_.nodeCount(), 0);
-    g.momentum.assign(grid_.nodeCount(), Vec<D>::Zero());
-    if (params_.transfer != MpmTransfer::Mls) g.force.assign(grid_.nodeCount(), Vec<D>::Zero());
+    g.mass.resize(grid_.nodeCount());  // zero, untouched
+    g.momentum.resize(grid_.nodeCount());
+    if (params_.transfer != MpmTransfer::Mls) g.force.resize(grid_.nodeCount());
   }
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   binParticles();

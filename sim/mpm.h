@@ -16,6 +16,7 @@
 #include "sim/scene.h"
 #include "sim/snow_material.h"
 #include "sim/solver.h"
+#include "sim/zero_page_allocator.h"
 
 namespace snowsim {
 
@@ -134,9 +135,12 @@ class MpmSolver final : public Solver<D> {
   // rows to share; 3D has rows enough, and its larger blocks sort faster.
   static constexpr int block_cells = D == 2 ? 3 : 4;
   static constexpr int colours = 1 << (D - 1);
+  // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
+  template <class T>
+  using ZeroPageVector = std::vector<T, ZeroPageAllocator<T>>;
   struct PartialGrid {
-    std::vector<Real> mass;
-    std::vector<Vec<D>> momentum, force;  // force stays empty for MLS (its force is in momentum)
+    ZeroPageVector<Real> mass;
+    ZeroPageVector<Vec<D>> momentum, force;  // force stays empty for MLS (its force is in momentum)
   };
   std::vector<PartialGrid> partial_;  // one per colour
   bool partials_pending_ = false;     // scattered to, not yet summed into the grid

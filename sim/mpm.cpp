@@ -122,14 +122,13 @@ void MpmSolver<D>::binParticles() {
   // Counting sort, each part on one contiguous range of particle indices: count per block, a
   // prefix sum over (block, range) gives each range its place in each block, each range places
   // its particles. A stable sort: its result does not depend on how the particles were split.
-  const auto rangeStart = [&](int r) { return static_cast<int>(std::lround(n * part_share_[r])); };
   enum Phase { Count, Prefix, Place };
   forEachPart(3, [&](int r, int phase) {
     int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
     if (phase == Count) {
       std::fill(cursor, cursor + block_count, 0);
       IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
-      for (int p = rangeStart(r), end = rangeStart(r + 1); p < end; ++p) {
+      for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
         int b = 0, s = 1;
         for (int a = 0; a < D; ++a) {
           const int k =
@@ -154,7 +153,7 @@ void MpmSolver<D>::binParticles() {
       }
       block_start_[block_count] = placed;
     } else if (phase == Place) {
-      for (int p = rangeStart(r), end = rangeStart(r + 1); p < end; ++p)
+      for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p)
         order_[cursor[particle_block_[p]]++] = p;
     }
   });
@@ -177,11 +176,11 @@ void MpmSolver<D>::binParticles() {
 template <int D>
 void MpmSolver<D>::splitRows() {
   const int rows = (static_cast<int>(block_start_.size()) - 1) / blocks_[0];
-  const long n = particles_.size();
+  const int n = particles_.size();
   part_rows_[0] = 0;
   int row = 0;
   for (int t = 1; t < parts_; ++t) {
-    const long target = std::lround(n * part_share_[t]);
+    const int target = shareStart(t, n);
     while (row < rows && rowFirstParticle(row) < target) ++row;
     // The row across the target goes to the part that holds more of it.
     if (row > part_rows_[t - 1] &&
@@ -270,20 +269,21 @@ void MpmSolver<D>::scatter(Real dt) {
 
 template <int D>
 void MpmSolver<D>::sumPartialGrids(int k) {
+  const bool forces = !partial_[0].force.empty();  // MLS's force field stays zero
   Real mass = 0;
   Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
   for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
     mass += std::exchange(g.mass[k], 0);
     momentum += g.momentum[k];
     g.momentum[k].setZero();
-    if (!g.force.empty()) {
+    if (forces) {
       force += g.force[k];
       g.force[k].setZero();
     }
   }
   fields_.mass[k] = mass;
   fields_.velocity[k] = momentum;
-  fields_.force[k] = force;
+  if (forces) fields_.force[k] = force;
 }
 
 template <int D>
@@ -453,13 +453,10 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   // grid nodes its part of the rows scattered to, still in its cache. The energy is summed per
   // chunk of the order, then the chunks in order: the same sum on any thread count.
   const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
-  const auto firstChunk = [&](int part) {
-    return static_cast<int>(std::lround(chunks * part_share_[part]));
-  };
   forEachPart(1, [&](int part, int) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
-    const int first = firstChunk(part), last = firstChunk(part + 1);
+    const int first = shareStart(part, chunks), last = shareStart(part + 1, chunks);
     for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
       for (int o = chunk * energy_chunk; o < std::min(n, (chunk + 1) * energy_chunk); ++o) {

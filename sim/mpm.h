@@ -6,6 +6,7 @@
 // (elasticGradient(), particles().volume, lame()).
 #pragma once
 
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
@@ -107,6 +108,10 @@ class MpmSolver final : public Solver<D> {
   void passOverParticles(F&& update);
   void measureParticles();   // the speeds and energy of the current state
   void sharePartsBySpeed();  // part_share_ from part_speed_ and the last pass's times
+  // Where part `part` starts among `count` items cut at the parts' shares.
+  int shareStart(int part, int count) const {
+    return static_cast<int>(std::lround(count * part_share_[part]));
+  }
   void measure(int p, PartMeasure& m) const;
   Real particleEnergy(int p) const;
   void checkBlowUp(Real dt) const;

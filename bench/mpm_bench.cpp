@@ -73,8 +73,8 @@ void measure(const char* label, const Json& j, int steps, int reps) {
     rate2.push_back(run<D>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
-  // x, v; mass, volume, density, J_P; body, block, sorted order; F_E, R_E, C (3D: V_E); Lamé.
-  const size_t bytes = sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 3 +
+  // x, v; mass, volume, density, J_P; body, id, block, sorted order; F_E, R_E, C (3D: V_E); Lamé.
+  const size_t bytes = sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 4 +
                        sizeof(Mat<D>) * (D == 3 ? 4 : 3) + sizeof(Lame);
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f), "

@@ -89,6 +89,7 @@ void MpmSolver<D>::step(Real dt) {
     step_when_exceeded_ = steps_;
   }
   binParticles();
+  if (steps_ % sorted_storage_interval == 0) storeInSortedOrder();  // each part together in memory
   scatter(dt);  // 1, 3: mass, momentum and forces to the grid
   if (params_.integrator == MpmIntegrator::SemiImplicit) {
     updateGridVelocities(dt);     // 4: explicit update
@@ -170,6 +171,33 @@ void MpmSolver<D>::binParticles() {
   for (int a = 0; a < D; ++a) {
     active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
     active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
+  }
+}
+
+template <int D>
+template <class F>
+void MpmSolver<D>::forEachParticleArray(F&& f) {
+  f(particles_.x), f(particles_.v), f(particles_.mass), f(particles_.volume);
+  f(particles_.density), f(particles_.body), f(particles_.id);
+  f(F_E_), f(R_E_), f(J_P_), f(C_), f(lame_);
+  if constexpr (D == 3) f(V_E_);
+}
+
+template <int D>
+void MpmSolver<D>::storeInSortedOrder() {
+  // Moves particle order_[o] to place o in every array, then order_ is the identity. In place,
+  // one cycle of the permutation at a time: no second copy of the particles.
+  const int n = particles_.size();
+  for (int start = 0; start < n; ++start) {
+    if (order_[start] == start) continue;  // in place already, or its cycle is done
+    forEachParticleArray([&](auto& array) {
+      auto held = std::move(array[start]);
+      int o = start;
+      for (int from = order_[o]; from != start; o = from, from = order_[from])
+        array[o] = std::move(array[from]);
+      array[o] = std::move(held);
+    });
+    for (int o = start; order_[o] != o;) o = std::exchange(order_[o], o);
   }
 }
 
@@ -650,10 +678,11 @@ void MpmSolver<D>::describe(Snapshot& snapshot) const {
   const int n = particles_.size();
   snapshot.density.resize(n);
   snapshot.plastic_j.resize(n);
-  for (int p = 0; p < n; ++p) {
+  for (int p = 0; p < n; ++p) {  // in creation order, as the snapshot's positions
     const Real J = F_E_[p].determinant() * J_P_[p];
-    snapshot.density[p] = static_cast<float>(particles_.mass[p] / (particles_.volume[p] * J));
-    snapshot.plastic_j[p] = static_cast<float>(J_P_[p]);
+    const int id = particles_.id[p];
+    snapshot.density[id] = static_cast<float>(particles_.mass[p] / (particles_.volume[p] * J));
+    snapshot.plastic_j[id] = static_cast<float>(J_P_[p]);
   }
   if constexpr (D == 2) {
     const Real area = grid_.h * grid_.h;

@@ -49,10 +49,10 @@ class SimulationOf final : public Simulation {
     const Particles<D>& p = solver_->particles();
     s.position.resize(p.size());
     s.velocity.resize(p.size());
-    for (int i = 0; i < p.size(); ++i)
+    for (int i = 0; i < p.size(); ++i)  // in creation order, however the solver stores them
       for (int a = 0; a < 3; ++a) {
-        s.position[i][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
-        s.velocity[i][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
+        s.position[p.id[i]][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
+        s.velocity[p.id[i]][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
       }
     solver_->describe(s);
     return s;

@@ -176,8 +176,9 @@ void checkBetaZero() {
     expl.step(1e-4);
   }
   Real worst = 0;
-  for (int p = 0; p < semi.particles().size(); ++p)
-    worst = std::max(worst, (semi.particles().x[p] - expl.particles().x[p]).norm());
+  const auto x_semi = semi.particles().positionsById(), x_expl = expl.particles().positionsById();
+  for (size_t p = 0; p < x_semi.size(); ++p)
+    worst = std::max(worst, (x_semi[p] - x_expl[p]).norm());
   EXPECT_LE(worst, 1e-14);
   // The ball has hit the ground and deformed, so the elastic forces are exercised.
   Real strain = 0;

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
+
 #include "sim/errors.h"
 #include "sim/json_fields.h"
 #include "sim/sampling.h"
@@ -90,17 +92,22 @@ TEST(Mpm, FreeFallFollowsTheDiscreteParabola) {
   j["bodies"][0]["velocity"] = {0.3, 0.5};
   j["mpm"] = {{"adaptive_dt", false}};
   auto s = makeSolver<2>(j);
-  const std::vector<Vec<2>> x0 = s.particles().x;
+  const std::vector<Vec<2>> x0 = s.particles().x;  // stored in creation order until the first step
   const Real dt = 5e-5;  // below the CFL limit: round-off in the stress must not grow
   const int steps = 400;
   for (int n = 0; n < steps; ++n) s.step(dt);
   const Real t = steps * dt;
-  // Symplectic Euler: x_n = x0 + v0 t + g dt^2 n (n + 1) / 2 = analytic + g t dt / 2.
+  // Symplectic Euler: x_n = x0 + v0 t + g dt^2 n (n + 1) / 2 = analytic + g t dt / 2. The solver
+  // has stored the particles in block order since (the ids are no longer in order), and each
+  // must still carry its own trajectory and state.
   const Vec<2> v0(0.3, 0.5), g(0, -9.81);
+  const std::vector<int>& id = s.particles().id;
+  EXPECT_FALSE(std::is_sorted(id.begin(), id.end()));
   for (int i = 0; i < s.particles().size(); ++i) {
-    const Vec<2> expected = x0[i] + v0 * t + g * (dt * dt * steps * (steps + 1) / 2);
+    const Vec<2>& start = x0[id[i]];
+    const Vec<2> expected = start + v0 * t + g * (dt * dt * steps * (steps + 1) / 2);
     EXPECT_LT((s.particles().x[i] - expected).norm(), 1e-11);
-    EXPECT_LT((s.particles().x[i] - (x0[i] + v0 * t + 0.5 * g * t * t)).norm(),
+    EXPECT_LT((s.particles().x[i] - (start + v0 * t + 0.5 * g * t * t)).norm(),
               9.81 * t * dt / 2 + 1e-11);
     EXPECT_LT((s.elasticGradient()[i] - Mat<2>::Identity()).norm(), 1e-11);
   }
@@ -190,6 +197,30 @@ TEST(Mpm, NoParticleEndsInsideACollider) {
   }
 }
 
+TEST(Mpm, SnapshotsKeepTheParticlesInCreationOrder) {
+  // The solver stores the particles by grid block, which interleaves two balls side by side; the
+  // snapshot (what images and files show) must list the first ball's particles first, each with
+  // its own density, as the scene created them.
+  Json j = baseScene();
+  j["bodies"] = {{{"shape", "ball"}, {"center", {0.05, 0.1}}, {"radius", 0.03}},
+                 {{"shape", "ball"}, {"center", {0.15, 0.1}}, {"radius", 0.03}, {"density", 200}}};
+  auto solver = makeSolver<2>(j);
+  solver.step(1e-4);
+  const std::vector<int>& id = solver.particles().id;
+  ASSERT_FALSE(std::is_sorted(id.begin(), id.end())) << "the balls must be stored interleaved";
+
+  const Scene scene = parseScene(j, "test.json");
+  const std::vector<int> body = sampleBodies<2>(scene).body;
+  const int first_ball = static_cast<int>(std::count(body.begin(), body.end(), 0));
+  auto simulation = makeSimulation(scene);
+  simulation->advanceTo(0.01);
+  const Snapshot snapshot = simulation->snapshot(1);
+  for (int i = 0; i < static_cast<int>(snapshot.position.size()); ++i) {
+    ASSERT_EQ(snapshot.position[i][0] < 0.1f, i < first_ball) << "particle " << i;
+    ASSERT_EQ(snapshot.density[i] > 300, i < first_ball) << "particle " << i;
+  }
+}
+
 TEST(Mpm, TwoAndThreeDimensionsAgreeOnAZUniformScene) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {1, -1};
@@ -226,8 +257,10 @@ TEST(Mpm, EmptySpaceAroundTheSnowCostsNothingAndChangesNothing) {
     auto large = makeSolver<2>(j);
     run(small, 0.15);
     run(large, 0.15);
-    for (int p = 0; p < small.particles().size(); ++p)
-      ASSERT_EQ(small.particles().x[p], large.particles().x[p]) << transfer << " particle " << p;
+    const auto in_small = small.particles().positionsById(),
+               in_large = large.particles().positionsById();
+    for (size_t p = 0; p < in_small.size(); ++p)
+      ASSERT_EQ(in_small[p], in_large[p]) << transfer << " particle " << p;
   }
 }
 
@@ -329,7 +362,7 @@ void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) 
     run(s, 0.002);
     omp_set_num_threads(then_threads);
     run(s, 0.002);
-    return s.particles().x;
+    return s.particles().positionsById();
   };
   const auto one = runWith(1, 1), again = runWith(1, 1), two = runWith(2, 2), three = runWith(3, 3),
              fewer = runWith(3, 2);

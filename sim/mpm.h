@@ -135,7 +135,7 @@ class MpmSolver final : public Solver<D> {
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene
   // Deterministic parallel P2G: particles binned into blocks of block_cells^D cells, sorted by
-  // block, in index order within a block. A row of blocks along x is the unit of work. Each row
+  // block, in stored order within a block. A row of blocks along x is the unit of work. Each row
   // scatters into the partial grid of its colour, the parity of its y (and z) block index: a
   // particle of cell c reaches nodes c-1 .. c+2, so rows of one colour, a row of at least 3 cells
   // apart, write no common node. A node of a partial grid sums the particles of one row, in sorted
@@ -156,7 +156,7 @@ class MpmSolver final : public Solver<D> {
   IVec<D> blocks_;
   std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
   std::vector<int> order_;
-  std::vector<int> particle_block_;
+  std::vector<int> particle_block_;  // per stored particle, binParticles' scratch: stale after it
   // Every few steps the particles are stored in the sorted order, so that each part's particles
   // lie together in memory: two threads then rarely write the same cache line, which on this
   // machine cost up to 25% of the particle pass on two threads (README, "Speed"). In between,

@@ -66,6 +66,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
     if (params_.transfer != MpmTransfer::Mls) g.force.resize(grid_.nodeCount());
   }
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
+  prepareParts();
   binParticles();
   scatter(0);
   updateGridVelocities(0);  // the grid's mass, for the volumes
@@ -82,22 +83,30 @@ void MpmSolver<D>::step(Real dt) {
     measureParticles();
     initial_energy_ = energy_;
   }
-  const Real stable_dt =
-      params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
+  const bool semi_implicit = params_.integrator == MpmIntegrator::SemiImplicit;
+  const Real stable_dt = semi_implicit ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
     step_when_exceeded_ = steps_;
   }
-  binParticles();
-  if (steps_ % sorted_storage_interval == 0) storeInSortedOrder();  // each part together in memory
-  scatter(dt);  // 1, 3: mass, momentum and forces to the grid
-  if (params_.integrator == MpmIntegrator::SemiImplicit) {
-    updateGridVelocities(dt);     // 4: explicit update
-    solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
-  } else {
-    updateCollidedGridVelocities(dt);  // 4 + 5: explicit update, grid collisions
-  }
-  updateParticles(dt);  // 8, 7, 9, 10: velocities, F_E and plasticity, collisions, positions
+  prepareParts();
+  if (partials_pending_) clearPartialGrids();  // a caller's scatter() this step replaces
+  // The explicit stages share one parallel region (sim/team.h); the semi-implicit solve opens
+  // regions of its own, so its stages do not share one.
+  team_.together(!semi_implicit, [&] {
+    binParticles();
+    if (steps_ % sorted_storage_interval == 0)  // each part together in memory
+      team_.serially([&] { storeInSortedOrder(); });
+    rasterise(dt);  // 1, 3: mass, momentum and forces to the grid
+    if (semi_implicit) {
+      updateGridNodes(dt, false);   // 4: explicit update
+      solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
+    } else {
+      updateGridNodes(dt, true);  // 4 + 5: explicit update, grid collisions
+    }
+    moveParticles(dt);  // 8, 7, 9, 10: velocities, F_E and plasticity, collisions, positions
+  });
+  collectMeasures();
   for (Collider<D>& c : colliders_) c.advance(dt);
   ++steps_;
   time_ += dt;
@@ -105,72 +114,93 @@ void MpmSolver<D>::step(Real dt) {
 }
 
 template <int D>
+void MpmSolver<D>::prepareParts() {
+  parts_ = parallel_ ? omp_get_max_threads() : 1;
+  team_.configure(parts_, parallel_);
+  if (static_cast<int>(part_share_.size()) == parts_ + 1) return;
+  // The first step, or another thread count.
+  const int block_count = static_cast<int>(block_start_.size()) - 1;
+  part_rows_.resize(parts_ + 1);
+  part_measures_.assign(parts_, PartMeasure());
+  part_speed_.assign(parts_, 1);
+  part_share_.resize(parts_ + 1);
+  sharePartsBySpeed();
+  range_count_.resize(static_cast<size_t>(parts_) * block_count);
+  range_cursor_.resize(static_cast<size_t>(parts_) * block_count);
+  range_first_block_.resize(parts_);
+  range_last_block_.resize(parts_);
+}
+
+template <int D>
 void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
   const int block_count = static_cast<int>(block_start_.size()) - 1;
-  parts_ = parallel_ ? omp_get_max_threads() : 1;
-  if (static_cast<int>(part_share_.size()) != parts_ + 1) {  // first step, or another thread count
-    part_rows_.resize(parts_ + 1);
-    part_measures_.assign(parts_, PartMeasure());
-    part_speed_.assign(parts_, 1);
-    part_share_.resize(parts_ + 1);
-    sharePartsBySpeed();
-    range_cursor_.resize(static_cast<size_t>(parts_) * block_count);
-    range_first_block_.resize(parts_);
-    range_last_block_.resize(parts_);
-  }
   const Real inv = 1 / (grid_.h * block_cells);
   // Counting sort, each part on one contiguous range of particle indices: count per block, a
   // prefix sum over (block, range) gives each range its place in each block, each range places
   // its particles. A stable sort: its result does not depend on how the particles were split.
-  enum Phase { Count, Prefix, Place };
-  forEachPart(3, [&](int r, int phase) {
+  team_.forEachPart([&](int r) {
+    int* count = &range_count_[static_cast<size_t>(r) * block_count];
+    std::fill(count, count + block_count, 0);
+    IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
+    for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
+      int b = 0, s = 1;
+      for (int a = 0; a < D; ++a) {
+        const int k =
+            std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+        first[a] = std::min(first[a], k);
+        last[a] = std::max(last[a], k);
+        b += k * s;
+        s *= blocks_[a];
+      }
+      particle_block_[p] = b;
+      ++count[b];
+    }
+    range_first_block_[r] = first;
+    range_last_block_[r] = last;
+  });
+  // Each part sums the prefix itself (one short pass over the blocks) rather than waiting for one
+  // thread to sum it: a barrier and, on two threads, the cursors crossing between caches twice.
+  team_.forEachPart([&](int r) {
     int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
-    if (phase == Count) {
-      std::fill(cursor, cursor + block_count, 0);
-      IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
-      for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
-        int b = 0, s = 1;
-        for (int a = 0; a < D; ++a) {
-          const int k =
-              std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
-          first[a] = std::min(first[a], k);
-          last[a] = std::max(last[a], k);
-          b += k * s;
-          s *= blocks_[a];
-        }
-        particle_block_[p] = b;
-        ++cursor[b];
+    int placed = 0;
+    for (int b = 0; b < block_count; ++b) {
+      if (r == 0) block_start_[b] = placed;
+      for (int range = 0; range < parts_; ++range) {
+        if (range == r) cursor[b] = placed;
+        placed += range_count_[static_cast<size_t>(range) * block_count + b];
       }
-      range_first_block_[r] = first;
-      range_last_block_[r] = last;
-    } else if (phase == Prefix && r == 0) {  // serial, and short: one pass over the blocks
-      int placed = 0;
-      for (int b = 0; b < block_count; ++b) {
-        block_start_[b] = placed;
-        for (int range = 0; range < parts_; ++range)
-          placed +=
-              std::exchange(range_cursor_[static_cast<size_t>(range) * block_count + b], placed);
-      }
+    }
+    for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p)
+      order_[cursor[particle_block_[p]]++] = p;
+    if (r == 0) {  // read after this stage only
       block_start_[block_count] = placed;
-    } else if (phase == Place) {
-      for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p)
-        order_[cursor[particle_block_[p]]++] = p;
+      splitRows();
+      findActiveNodes();
     }
   });
-  splitRows();
+}
 
+template <int D>
+void MpmSolver<D>::findActiveNodes() {
   IVec<D> first_block = blocks_, last_block = IVec<D>::Constant(-1);
   for (int r = 0; r < parts_; ++r) {
     first_block = first_block.cwiseMin(range_first_block_[r]);
     last_block = last_block.cwiseMax(range_last_block_[r]);
   }
-
+  const NodeBox<D> previous = active_;
   // A particle of cell c reaches nodes c-1 .. c+2 with either kernel; two more on each side hold
   // particles just outside the domain, which the edge blocks keep.
   for (int a = 0; a < D; ++a) {
     active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
     active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
+  }
+  // The grid nodes with mass lie in the active_ of the scatter before the grid stage: this
+  // binning's or, until the next scatter, the previous one's.
+  updated_ = active_;
+  if (previous.count() > 0) {
+    updated_.lo = updated_.lo.cwiseMin(previous.lo);
+    updated_.hi = updated_.hi.cwiseMax(previous.hi);
   }
 }
 
@@ -231,21 +261,6 @@ int MpmSolver<D>::rowColour(int row) const {
 
 template <int D>
 template <class F>
-void MpmSolver<D>::forEachPart(int phases, F&& f) {
-#pragma omp parallel num_threads(parts_) if (parallel_)
-  {
-    const int team = omp_get_num_threads();  // the runtime may grant fewer threads than asked
-    for (int phase = 0; phase < phases; ++phase) {
-      if (phase > 0) {
-#pragma omp barrier
-      }
-      for (int part = omp_get_thread_num(); part < parts_; part += team) f(part, phase);
-    }
-  }
-}
-
-template <int D>
-template <class F>
 void MpmSolver<D>::forActiveNodes(F&& f) {
   const int count = active_.count();
 #pragma omp parallel for schedule(static) if (parallel_)
@@ -254,20 +269,14 @@ void MpmSolver<D>::forActiveNodes(F&& f) {
 
 template <int D>
 template <class F>
-void MpmSolver<D>::forScatteredNodes(F&& f) {
-  NodeBox<D> box = active_;
-  if (filled_.count() > 0) {
-    box.lo = box.lo.cwiseMin(filled_.lo);
-    box.hi = box.hi.cwiseMax(filled_.hi);
-  }
-  filled_ = active_;
-  partials_pending_ = false;  // f sums and clears them
+void MpmSolver<D>::forUpdatedNodes(F&& f) {
+  const NodeBox<D>& box = updated_;
   // A part takes the lines of nodes along x that lie in its rows of blocks: the nodes its thread
   // scattered to, still in its cache, and about its share of the nodes with mass, which cost the
   // most (interleaving the nodes across threads instead doubled this stage's time on two).
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
-  forEachPart(1, [&](int part, int) {
+  team_.forEachPart([&](int part) {
     for (int line = 0; line < lines; ++line) {
       const int first = box.flatIndex(grid_, line * width);
       const IVec<D> node = grid_.coords(first);
@@ -284,15 +293,24 @@ void MpmSolver<D>::forScatteredNodes(F&& f) {
 
 template <int D>
 void MpmSolver<D>::scatter(Real dt) {
-  if (partials_pending_) {  // a second scatter with no grid stage between: it replaces the first
-    for (PartialGrid& g : partial_) {
-      std::fill(g.mass.begin(), g.mass.end(), Real(0));
-      std::fill(g.momentum.begin(), g.momentum.end(), Vec<D>::Zero());
-      std::fill(g.force.begin(), g.force.end(), Vec<D>::Zero());
-    }
-  }
-  withKernel(params_.kernel, [&]<class Kernel>() { scatterWith<Kernel>(dt); });
+  if (partials_pending_) clearPartialGrids();  // a second scatter replaces the first
+  rasterise(dt);
   partials_pending_ = true;
+}
+
+template <int D>
+void MpmSolver<D>::clearPartialGrids() {
+  for (PartialGrid& g : partial_) {
+    std::fill(g.mass.begin(), g.mass.end(), Real(0));
+    std::fill(g.momentum.begin(), g.momentum.end(), Vec<D>::Zero());
+    std::fill(g.force.begin(), g.force.end(), Vec<D>::Zero());
+  }
+  partials_pending_ = false;
+}
+
+template <int D>
+void MpmSolver<D>::rasterise(Real dt) {
+  withKernel(params_.kernel, [&]<class Kernel>() { rasteriseWith<Kernel>(dt); });
 }
 
 template <int D>
@@ -324,12 +342,12 @@ void MpmSolver<D>::velocityFromMomentum(int k) {
 
 template <int D>
 template <class Kernel>
-void MpmSolver<D>::scatterWith(Real dt) {
+void MpmSolver<D>::rasteriseWith(Real dt) {
   const Real h = grid_.h, inv_h = 1 / h;
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
   const bool mls = params_.transfer == MpmTransfer::Mls;
-  forEachPart(1, [&](int part, int) {
+  team_.forEachPart([&](int part) {
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
       PartialGrid& g = partial_[rowColour(row)];
       for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
@@ -419,20 +437,23 @@ void MpmSolver<D>::collideNode(int k) {
 
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
-  forScatteredNodes([&](int k) {
-    sumPartialGrids(k);
-    velocityFromMomentum(k);
-    accelerate(k, dt);
-  });
+  updateGridNodes(dt, false);
+  partials_pending_ = false;  // summed and cleared
 }
 
 template <int D>
 void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
-  forScatteredNodes([&](int k) {  // one pass: each node is loaded once for the four
+  updateGridNodes(dt, true);
+  partials_pending_ = false;
+}
+
+template <int D>
+void MpmSolver<D>::updateGridNodes(Real dt, bool collide) {
+  forUpdatedNodes([&](int k) {  // one pass: each node is loaded once for the four
     sumPartialGrids(k);
     velocityFromMomentum(k);
     accelerate(k, dt);
-    collideNode(k);
+    if (collide) collideNode(k);
   });
 }
 
@@ -459,12 +480,18 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
 
 template <int D>
 void MpmSolver<D>::updateParticles(Real dt) {
-  withKernel(params_.kernel, [&]<class Kernel>() { updateParticlesWith<Kernel>(dt); });
+  moveParticles(dt);
+  collectMeasures();
+}
+
+template <int D>
+void MpmSolver<D>::moveParticles(Real dt) {
+  withKernel(params_.kernel, [&]<class Kernel>() { moveParticlesWith<Kernel>(dt); });
 }
 
 template <int D>
 template <class Kernel>
-void MpmSolver<D>::updateParticlesWith(Real dt) {
+void MpmSolver<D>::moveParticlesWith(Real dt) {
   // One pass: each particle's arrays are loaded once for the four stages, not once per stage.
   passOverParticles([&](int p) {
     gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
@@ -481,7 +508,7 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   // grid nodes its part of the rows scattered to, still in its cache. The energy is summed per
   // chunk of the order, then the chunks in order: the same sum on any thread count.
   const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
-  forEachPart(1, [&](int part, int) {
+  team_.forEachPart([&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
     const int first = shareStart(part, chunks), last = shareStart(part + 1, chunks);
@@ -501,6 +528,10 @@ void MpmSolver<D>::passOverParticles(F&& update) {
     }
     part_measures_[part] = m;
   });
+}
+
+template <int D>
+void MpmSolver<D>::collectMeasures() {
   if (parallel_) sharePartsBySpeed();
   fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
@@ -550,6 +581,7 @@ void MpmSolver<D>::sharePartsBySpeed() {
 template <int D>
 void MpmSolver<D>::measureParticles() {
   passOverParticles([](int) {});
+  collectMeasures();
 }
 
 template <int D>

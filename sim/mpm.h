@@ -17,6 +17,7 @@
 #include "sim/scene.h"
 #include "sim/snow_material.h"
 #include "sim/solver.h"
+#include "sim/team.h"
 #include "sim/zero_page_allocator.h"
 
 namespace snowsim {
@@ -70,18 +71,25 @@ class MpmSolver final : public Solver<D> {
   void velocityFromMomentum(int k);
   void accelerate(int k, Real dt);  // eq. 8 explicit, plus gravity
   void collideNode(int k);
+  // The stages' parallel work, which step() runs in one shared region (sim/team.h); the public
+  // stages above add what a stage run alone needs.
+  void rasterise(Real dt);                      // 1 + 3
+  void updateGridNodes(Real dt, bool collide);  // 4, and 5 if collide
+  void moveParticles(Real dt);                  // 8, 7, 9, 10, and each part's measures
   template <class Kernel>
-  void scatterWith(Real dt);
-
+  void rasteriseWith(Real dt);
   template <class Kernel>
-  void updateParticlesWith(Real dt);
+  void moveParticlesWith(Real dt);
+  void clearPartialGrids();  // what a scatter left for a grid stage that never came
   template <class Kernel>
   void gatherVelocity(int p);              // 8. v_p by PIC/FLIP, APIC or MLS, and grad v_p
   void updateDeformation(int p, Real dt);  // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
   void collideParticle(int p);             // 9. particle-based body collisions (section 8)
   void advect(int p, Real dt);             // 10. x += dt v, kept out of colliders and in the domain
 
+  void prepareParts();  // parts_ and their state, for the thread count of this step
   void binParticles();
+  void findActiveNodes();  // active_ and updated_ from the blocks the particles are in
   // The particle arrays permuted into the sorted order of the last binParticles().
   void storeInSortedOrder();
   template <class F>
@@ -89,16 +97,12 @@ class MpmSolver final : public Solver<D> {
   void splitRows();                  // part_rows_ from the sorted particles
   int rowColour(int row) const;
   int rowFirstParticle(int row) const { return block_start_[row * blocks_[0]]; }
-  // f(part, phase) for each part, in parallel for large scenes, phase by phase: all parts finish a
-  // phase before any starts the next. One parallel region for all phases.
-  template <class F>
-  void forEachPart(int phases, F&& f);
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
-  // The grid stage after a scatter: f(k) for each node of active_ and of the last box it wrote,
-  // which leaves nothing outside active_.
+  // The grid stage after a scatter: f(k) for each node of updated_, which leaves nothing outside
+  // active_.
   template <class F>
-  void forScatteredNodes(F&& f);
+  void forUpdatedNodes(F&& f);
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
 
   struct PartMeasure {  // the fastest particles of one part, and how long the part took
@@ -107,9 +111,10 @@ class MpmSolver final : public Solver<D> {
     int particles = 0;
     double seconds = 0;
   };
-  // update(p) for each particle, part by part, then the speeds and the energy they leave.
+  // update(p) for each particle, part by part, each part measuring what it leaves.
   template <class F>
   void passOverParticles(F&& update);
+  void collectMeasures();    // the speeds, energy and shares from the parts' measures
   void measureParticles();   // the speeds and energy of the current state
   void sharePartsBySpeed();  // part_share_ from part_speed_ and the last pass's times
   // Where part `part` starts among `count` items cut at the parts' shares.
@@ -168,6 +173,7 @@ class MpmSolver final : public Solver<D> {
   // shares, so the particles and the grid nodes a thread writes in one stage are mostly the ones
   // it reads in the next, from its own cache.
   int parts_ = 1;
+  Team team_;
   std::vector<int> part_rows_;
   // The threads of a shared machine are not equally fast, and each part's share of the work
   // follows its thread's measured speed: part t takes the particles from part_share_[t] to
@@ -177,16 +183,16 @@ class MpmSolver final : public Solver<D> {
   std::vector<double> part_share_;
   std::vector<PartMeasure> part_measures_;
   // Counting-sort state per part r, each sorting one contiguous range of particle indices:
-  // range_cursor_[r * blocks + b] counts, then places, its particles of block b;
+  // range_count_[r * blocks + b] counts its particles of block b, range_cursor_ places them;
   // range_first/last_block_[r] bound the blocks its particles are in.
-  std::vector<int> range_cursor_;
+  std::vector<int> range_count_, range_cursor_;
   std::vector<IVec<D>> range_first_block_, range_last_block_;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
-  // Nodes outside stay zero: the grid stage after a scatter sums the partial grids over active_
-  // and the last box, which zeroes the nodes active_ no longer covers.
+  // Nodes outside stay zero: the grid stage sums the partial grids over updated_, active_ and
+  // the previous binning's, which zeroes the nodes active_ no longer covers.
   NodeBox<D> active_;
-  NodeBox<D> filled_;  // the active_ of the last scatter
+  NodeBox<D> updated_;
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.
@@ -209,9 +215,8 @@ class MpmSolver final : public Solver<D> {
   int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
-  // Threads only pay off from a few thousand particles: below, waking the threads for the four
-  // parallel regions of an explicit step costs more than they share (README, "Speed", for the
-  // measured ratios).
+  // Threads only pay off from a few thousand particles: below, waking the threads and meeting
+  // between the stages costs more than they share (README, "Speed", for the measured ratios).
   static constexpr int parallel_min_particles = 2048;
   bool parallel_ = false;
   long steps_ = 0;

@@ -1,0 +1,62 @@
+#include "sim/team.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <numeric>
+#include <vector>
+
+using namespace snowsim;
+
+namespace {
+
+// Rounds of three stages in one shared region: each part writes, one thread sums, each part reads
+// the sum. A barrier that let a thread run ahead would show a stale sum or a missed part.
+void checkStagesMeetInOrder(int parts, int threads) {
+  omp_set_num_threads(threads);
+  Team team;
+  team.configure(parts, true);
+  std::vector<long> written(parts), read(parts);
+  std::vector<int> runs(parts, 0);
+  long sum = 0;
+  bool in_order = true;
+  constexpr int rounds = 2000;
+  team.together(true, [&] {
+    for (int round = 0; round < rounds; ++round) {
+      team.forEachPart([&](int part) {
+        written[part] = long(round) * parts + part;
+        ++runs[part];
+      });
+      team.serially([&] { sum = std::accumulate(written.begin(), written.end(), 0L); });
+      team.forEachPart([&](int part) { read[part] = sum; });
+      team.serially([&] {
+        const long expected = long(round) * parts * parts + long(parts) * (parts - 1) / 2;
+        for (const long r : read) in_order = in_order && r == expected;
+      });
+    }
+  });
+  EXPECT_TRUE(in_order) << parts << " parts on " << threads << " threads";
+  for (int part = 0; part < parts; ++part)
+    EXPECT_EQ(runs[part], rounds) << "part " << part << " of " << parts << ", " << threads
+                                  << " threads";
+  omp_set_num_threads(omp_get_num_procs());
+}
+
+}  // namespace
+
+TEST(Team, StagesOfASharedRegionMeetInOrder) {
+  checkStagesMeetInOrder(2, 2);
+  checkStagesMeetInOrder(3, 3);  // more threads than this machine's two cores: they take turns
+  checkStagesMeetInOrder(3, 2);  // fewer threads than parts: a thread takes several
+}
+
+TEST(Team, OutsideASharedRegionEachStageRunsOnItsOwn) {
+  Team team;
+  team.configure(4, true);
+  std::vector<int> runs(4, 0);
+  team.forEachPart([&](int part) { ++runs[part]; });
+  int serial_runs = 0;
+  team.serially([&] { ++serial_runs; });
+  EXPECT_EQ(runs, std::vector<int>(4, 1));
+  EXPECT_EQ(serial_runs, 1);
+}

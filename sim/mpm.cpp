@@ -52,12 +52,12 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   C_.assign(n, Mat<D>::Zero());
   order_.resize(n);
   particle_block_.resize(n);
-  int block_count = 1;
+  block_count_ = 1;
   for (int a = 0; a < D; ++a) {
     blocks_[a] = (cells[a] + block_cells - 1) / block_cells;
-    block_count *= blocks_[a];
+    block_count_ *= blocks_[a];
   }
-  block_start_.assign(block_count + 1, 0);
+  row_start_.assign(block_count_ / blocks_[0] + 1, 0);
   chunk_energy_.resize((n + energy_chunk - 1) / energy_chunk);
   partial_.resize(colours);
   for (PartialGrid& g : partial_) {
@@ -119,29 +119,36 @@ void MpmSolver<D>::prepareParts() {
   team_.configure(parts_, parallel_);
   if (static_cast<int>(part_share_.size()) == parts_ + 1) return;
   // The first step, or another thread count.
-  const int block_count = static_cast<int>(block_start_.size()) - 1;
   part_rows_.resize(parts_ + 1);
   part_measures_.assign(parts_, PartMeasure());
   part_speed_.assign(parts_, 1);
   part_share_.resize(parts_ + 1);
   sharePartsBySpeed();
-  range_count_.resize(static_cast<size_t>(parts_) * block_count);
-  range_cursor_.resize(static_cast<size_t>(parts_) * block_count);
-  range_first_block_.resize(parts_);
-  range_last_block_.resize(parts_);
+  range_count_.assign(static_cast<size_t>(parts_) * block_count_, 0);
+  range_cursor_.resize(static_cast<size_t>(parts_) * block_count_);
+  range_first_block_.assign(parts_, blocks_);  // empty boxes: nothing counted yet
+  range_last_block_.assign(parts_, IVec<D>::Constant(-1));
 }
 
 template <int D>
 void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
-  const int block_count = static_cast<int>(block_start_.size()) - 1;
+  const int rows = static_cast<int>(row_start_.size()) - 1;
   const Real inv = 1 / (grid_.h * block_cells);
+  const auto countsOf = [&](int range) {
+    return &range_count_[static_cast<size_t>(range) * block_count_];
+  };
   // Counting sort, each part on one contiguous range of particle indices: count per block, a
   // prefix sum over (block, range) gives each range its place in each block, each range places
   // its particles. A stable sort: its result does not depend on how the particles were split.
+  // A range's counts are zero outside the box of blocks its particles were in, which is all
+  // that is cleared and summed: the snow's blocks, not the domain's.
   team_.forEachPart([&](int r) {
-    int* count = &range_count_[static_cast<size_t>(r) * block_count];
-    std::fill(count, count + block_count, 0);
+    int* count = countsOf(r);
+    for (int row = 0; row < rows; ++row)
+      forBlocksOfRowInBox(
+          row, range_first_block_[r], range_last_block_[r],
+          [&](int first, int length, const IVec<D>&) { std::fill_n(count + first, length, 0); });
     IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
     for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
       int b = 0, s = 1;
@@ -159,26 +166,51 @@ void MpmSolver<D>::binParticles() {
     range_first_block_[r] = first;
     range_last_block_[r] = last;
   });
-  // Each part sums the prefix itself (one short pass over the blocks) rather than waiting for one
-  // thread to sum it: a barrier and, on two threads, the cursors crossing between caches twice.
+  // Each part sums the prefix itself rather than waiting for one thread to sum it: a barrier
+  // and, on two threads, the cursors crossing between caches twice.
   team_.forEachPart([&](int r) {
-    int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count];
+    IVec<D> lo = blocks_, hi = IVec<D>::Constant(-1);  // the union of the ranges' boxes
+    for (int range = 0; range < parts_; ++range) {
+      lo = lo.cwiseMin(range_first_block_[range]);
+      hi = hi.cwiseMax(range_last_block_[range]);
+    }
+    int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count_];
     int placed = 0;
-    for (int b = 0; b < block_count; ++b) {
-      if (r == 0) block_start_[b] = placed;
-      for (int range = 0; range < parts_; ++range) {
-        if (range == r) cursor[b] = placed;
-        placed += range_count_[static_cast<size_t>(range) * block_count + b];
-      }
+    for (int row = 0; row < rows; ++row) {
+      if (r == 0) row_start_[row] = placed;
+      forBlocksOfRowInBox(row, lo, hi, [&](int first, int length, IVec<D> block) {
+        for (int b = first; b < first + length; ++b, ++block[0])
+          for (int range = 0; range < parts_; ++range) {
+            if ((block.array() < range_first_block_[range].array()).any() ||
+                (block.array() > range_last_block_[range].array()).any())
+              continue;  // outside its box: none of its particles
+            if (range == r) cursor[b] = placed;
+            placed += countsOf(range)[b];
+          }
+      });
     }
     for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p)
       order_[cursor[particle_block_[p]]++] = p;
     if (r == 0) {  // read after this stage only
-      block_start_[block_count] = placed;
+      row_start_[rows] = placed;
       splitRows();
       findActiveNodes();
     }
   });
+}
+
+template <int D>
+template <class F>
+void MpmSolver<D>::forBlocksOfRowInBox(int row, const IVec<D>& lo, const IVec<D>& hi, F&& f) const {
+  if (lo[0] > hi[0]) return;
+  IVec<D> block;
+  block[0] = lo[0];
+  for (int a = 1, rest = row; a < D; ++a) {
+    block[a] = rest % blocks_[a];
+    rest /= blocks_[a];
+    if (block[a] < lo[a] || block[a] > hi[a]) return;
+  }
+  f(row * blocks_[0] + lo[0], hi[0] - lo[0] + 1, block);
 }
 
 template <int D>
@@ -233,7 +265,7 @@ void MpmSolver<D>::storeInSortedOrder() {
 
 template <int D>
 void MpmSolver<D>::splitRows() {
-  const int rows = (static_cast<int>(block_start_.size()) - 1) / blocks_[0];
+  const int rows = static_cast<int>(row_start_.size()) - 1;
   const int n = particles_.size();
   part_rows_[0] = 0;
   int row = 0;

@@ -96,7 +96,12 @@ class MpmSolver final : public Solver<D> {
   void forEachParticleArray(F&& f);  // f(array) for each per-particle array
   void splitRows();                  // part_rows_ from the sorted particles
   int rowColour(int row) const;
-  int rowFirstParticle(int row) const { return block_start_[row * blocks_[0]]; }
+  int rowFirstParticle(int row) const { return row_start_[row]; }
+  // f(first, length, block): the blocks of row `row` within the box [lo, hi] of block coordinates,
+  // a run of `length` along x from flat block index `first`, at coordinates `block`; nothing if
+  // the row misses the box.
+  template <class F>
+  void forBlocksOfRowInBox(int row, const IVec<D>& lo, const IVec<D>& hi, F&& f) const;
   template <class F>
   void forActiveNodes(F&& f);  // f(k) for each node of active_, in parallel for large scenes
   // The grid stage after a scatter: f(k) for each node of updated_, which leaves nothing outside
@@ -159,7 +164,8 @@ class MpmSolver final : public Solver<D> {
   std::vector<PartialGrid> partial_;  // one per colour
   bool partials_pending_ = false;     // scattered to, not yet summed into the grid
   IVec<D> blocks_;
-  std::vector<int> block_start_;  // particles of block b: order_[block_start_[b] .. [b+1])
+  int block_count_ = 0;
+  std::vector<int> row_start_;  // particles of row r: order_[row_start_[r] .. [r + 1])
   std::vector<int> order_;
   std::vector<int> particle_block_;  // per stored particle, binParticles' scratch: stale after it
   // Every few steps the particles are stored in the sorted order, so that each part's particles

@@ -92,7 +92,8 @@ void MpmSolver<D>::step(Real dt) {
   prepareParts();
   if (partials_pending_) clearPartialGrids();  // a caller's scatter() this step replaces
   // The explicit stages share one parallel region (sim/team.h); the semi-implicit solve opens
-  // regions of its own, so its stages do not share one.
+  // regions of its own and may throw, so its stages never share one (nothing that runs in the
+  // shared region throws: an exception cannot leave an OpenMP region).
   team_.together(!semi_implicit, [&] {
     binParticles();
     if (steps_ % sorted_storage_interval == 0)  // each part together in memory
@@ -227,8 +228,8 @@ void MpmSolver<D>::findActiveNodes() {
     active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
     active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
   }
-  // The grid nodes with mass lie in the active_ of the scatter before the grid stage: this
-  // binning's or, until the next scatter, the previous one's.
+  // The partial grids hold mass in this binning's active_, the grid still holds the last grid
+  // stage's, in the previous binning's: the grid stage updates both.
   updated_ = active_;
   if (previous.count() > 0) {
     updated_.lo = updated_.lo.cwiseMin(previous.lo);
@@ -481,7 +482,7 @@ void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
 
 template <int D>
 void MpmSolver<D>::updateGridNodes(Real dt, bool collide) {
-  forUpdatedNodes([&](int k) {  // one pass: each node is loaded once for the four
+  forUpdatedNodes([&](int k) {  // one pass: each node is loaded once for all of them
     sumPartialGrids(k);
     velocityFromMomentum(k);
     accelerate(k, dt);

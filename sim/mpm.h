@@ -189,7 +189,7 @@ class MpmSolver final : public Solver<D> {
   std::vector<double> part_share_;
   std::vector<PartMeasure> part_measures_;
   // Counting-sort state per part r, each sorting one contiguous range of particle indices:
-  // range_count_[r * blocks + b] counts its particles of block b, range_cursor_ places them;
+  // range_count_[r * block_count_ + b] counts its particles of block b, range_cursor_ places them;
   // range_first/last_block_[r] bound the blocks its particles are in.
   std::vector<int> range_count_, range_cursor_;
   std::vector<IVec<D>> range_first_block_, range_last_block_;
@@ -198,7 +198,7 @@ class MpmSolver final : public Solver<D> {
   // Nodes outside stay zero: the grid stage sums the partial grids over updated_, active_ and
   // the previous binning's, which zeroes the nodes active_ no longer covers.
   NodeBox<D> active_;
-  NodeBox<D> updated_;
+  NodeBox<D> updated_;  // what the grid stage updates: active_ and the previous binning's
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.

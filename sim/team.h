@@ -9,7 +9,6 @@
 #include <omp.h>
 
 #include <atomic>
-#include <thread>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -17,8 +16,9 @@
 
 namespace snowsim {
 
-// Waits for all the threads of a parallel region; spins, then yields, so that more threads than
-// cores still take turns. Its release orders every write before it before every read after it.
+// Waits for all the threads of a parallel region; spins, then sleeps (a futex wait through
+// std::atomic::wait), so that more threads than cores, or a busy machine, still make progress.
+// Its release orders every write before it before every read after it.
 class SpinBarrier {
  public:
   SpinBarrier() = default;
@@ -30,15 +30,18 @@ class SpinBarrier {
     const unsigned generation = generation_.load(std::memory_order_acquire);
     if (arrived_.fetch_add(1, std::memory_order_acq_rel) == threads - 1) {  // the last one
       arrived_.store(0, std::memory_order_relaxed);
-      generation_.store(generation + 1, std::memory_order_release);
+      // Sequentially consistent, so that notify_all's check for sleepers cannot miss one that
+      // went to sleep on the old generation.
+      generation_.store(generation + 1, std::memory_order_seq_cst);
+      generation_.notify_all();  // no system call unless a thread sleeps
       return;
     }
-    for (int spins = 0; generation_.load(std::memory_order_acquire) == generation; ++spins) {
-      if (spins < spins_before_yield)
-        pause();
-      else
-        std::this_thread::yield();
+    for (int spins = 0; spins < spins_before_sleep; ++spins) {
+      if (generation_.load(std::memory_order_acquire) != generation) return;
+      pause();
     }
+    while (generation_.load(std::memory_order_acquire) == generation)
+      generation_.wait(generation, std::memory_order_acquire);
   }
 
  private:
@@ -47,7 +50,7 @@ class SpinBarrier {
     _mm_pause();
 #endif
   }
-  static constexpr int spins_before_yield = 4096;  // some tens of µs
+  static constexpr int spins_before_sleep = 4096;  // tens to hundreds of µs, by processor
   alignas(64) std::atomic<int> arrived_{0};        // each on its own cache line
   alignas(64) std::atomic<unsigned> generation_{0};
 };
@@ -63,7 +66,6 @@ class Team {
     parts_ = parts;
     parallel_ = parallel;
   }
-  int parts() const { return parts_; }
 
   // body() on every thread of one parallel region if `shared`, else on the calling thread alone
   // (each stage then opens its own region).

@@ -20,7 +20,7 @@ void checkStagesMeetInOrder(int parts, int threads) {
   std::vector<int> runs(parts, 0);
   long sum = 0;
   bool in_order = true;
-  constexpr int rounds = 2000;
+  constexpr int rounds = 500;
   team.together(true, [&] {
     for (int round = 0; round < rounds; ++round) {
       team.forEachPart([&](int part) {
@@ -47,7 +47,27 @@ void checkStagesMeetInOrder(int parts, int threads) {
 TEST(Team, StagesOfASharedRegionMeetInOrder) {
   checkStagesMeetInOrder(2, 2);
   checkStagesMeetInOrder(3, 3);  // more threads than this machine's two cores: they take turns
-  checkStagesMeetInOrder(3, 2);  // fewer threads than parts: a thread takes several
+}
+
+TEST(Team, ARegionGrantedFewerThreadsThanPartsStillRunsEveryPart) {
+  // Inside an active region, with one active level allowed, the runtime grants a nested region
+  // one thread: it must run all three parts of each stage.
+  const int levels = omp_get_max_active_levels();
+  omp_set_max_active_levels(1);
+  int granted = 0;
+#pragma omp parallel num_threads(2)
+#pragma omp single
+  {
+    Team team;
+    team.configure(3, true);
+    team.together(true, [&] {
+#pragma omp single
+      granted = omp_get_num_threads();
+    });
+    checkStagesMeetInOrder(3, 3);
+  }
+  omp_set_max_active_levels(levels);
+  EXPECT_EQ(granted, 1);
 }
 
 TEST(Team, OutsideASharedRegionEachStageRunsOnItsOwn) {

@@ -1,7 +1,7 @@
 // The threads that share the stages of one MPM step. A stage is cut into parts, one per thread;
 // each part runs on one thread and the stages meet at barriers. The stages of a step can share
 // one OpenMP parallel region, because opening a region costs about two of libgomp's barriers
-// and each of those makes a futex call: 3 and 1.4 µs against 0.3 µs for SpinBarrier on this
+// and each of those makes a futex call: 3 and 1.4 µs against 0.3-0.5 µs for SpinBarrier on this
 // machine (bench/sync_bench), while a two-thread explicit step of the small 2D bench takes about
 // 210 µs.
 #pragma once

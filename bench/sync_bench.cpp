@@ -1,11 +1,13 @@
-// What it costs two threads to meet, which sim/team.h is built on: an empty OpenMP parallel
-// region, an OpenMP barrier, std::barrier and SpinBarrier, in µs per meeting (median of
-// repetitions). An explicit MPM step opens one region and passes five barriers (six every 64
-// steps, when the particles are stored sorted).
+// What it costs two threads to meet, which sim/team.h is built on, in µs per meeting (median of
+// repetitions): an empty OpenMP parallel region, against an empty task of sim/team.h's Team (its
+// worker woken, then both meeting at the end); an OpenMP barrier, std::barrier and SpinBarrier,
+// meeting back to back and with one thread arriving 2 µs after the other. An explicit MPM step
+// is one task with five barriers (six every 64 steps, when the particles are stored sorted).
 // Usage: sync_bench [meetings=20000] [repetitions=7]
 #include <omp.h>
 
 #include <barrier>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 
@@ -13,6 +15,18 @@
 #include "sim/team.h"
 
 using snowsim::SpinBarrier;
+using snowsim::Team;
+
+namespace {
+
+// Busy for `us` microseconds: a thread's share of a stage.
+void work(double us) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double, std::micro>(us);
+  while (std::chrono::steady_clock::now() < end) {
+  }
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   const int meetings = argc > 1 ? std::atoi(argv[1]) : 20000;
@@ -48,13 +62,35 @@ int main(int argc, char** argv) {
 #pragma omp parallel num_threads(2)
     for (int i = 0; i < meetings; ++i) std_barrier.arrive_and_wait();
   });
-  SpinBarrier spin;
+  Team team;
+  team.configure(2, true);
+  const double task = perMeeting([&] {
+    for (int i = 0; i < meetings; ++i) team.forEachPart([](int) {});
+  });
+  SpinBarrier spin(2);
   const double spinning = perMeeting([&] {
 #pragma omp parallel num_threads(2)
-    for (int i = 0; i < meetings; ++i) spin.wait(2);
+    for (int i = 0; i < meetings; ++i) spin.wait(omp_get_thread_num());
   });
+  // Stages whose parts end 2 µs apart: what the barrier adds to the 2 µs of the later part.
+  const auto apart = [&](auto&& meet) {
+    return perMeeting([&] {
+#pragma omp parallel num_threads(2)
+             for (int i = 0; i < meetings; ++i) {
+               work(omp_get_thread_num() == 1 ? 2.0 : 0.0);
+               meet();
+             }
+           }) -
+           2.0;
+  };
+  const double omp_apart = apart([] {
+#pragma omp barrier
+  });
+  const double standard_apart = apart([&] { std_barrier.arrive_and_wait(); });
+  const double spinning_apart = apart([&] { spin.wait(omp_get_thread_num()); });
   std::printf(
-      "two threads meeting, µs each: OpenMP parallel region %.2f, OpenMP barrier %.2f, "
-      "std::barrier %.2f, SpinBarrier %.2f\n",
-      region, omp_barrier, standard, spinning);
+      "two threads meeting, µs each: OpenMP parallel region %.2f, Team task %.2f; back to back: "
+      "OpenMP barrier %.2f, std::barrier %.2f, SpinBarrier %.2f; 2 µs apart: OpenMP barrier "
+      "%.2f, std::barrier %.2f, SpinBarrier %.2f\n",
+      region, task, omp_barrier, standard, spinning, omp_apart, standard_apart, spinning_apart);
 }

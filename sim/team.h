@@ -1,14 +1,16 @@
 // The threads that share the stages of one MPM step. A stage is cut into parts, one per thread;
-// each part runs on one thread and the stages meet at barriers. The stages of a step can share
-// one OpenMP parallel region, because opening a region costs about two of libgomp's barriers
-// and each of those makes a futex call: 3 and 1.4 µs against 0.3-0.5 µs for SpinBarrier on this
-// machine (bench/sync_bench), while a two-thread explicit step of the small 2D bench takes about
-// 210 µs.
+// each part runs on one thread and the stages meet at barriers. The team keeps its own worker
+// threads, which wait for the next step spinning, then asleep: opening an OpenMP parallel region
+// for each step cost about 7 µs of a 220 µs two-thread step of the small 2D bench on this machine,
+// where waking a spinning worker and meeting at SpinBarrier cost about 0.3-0.5 µs each
+// (bench/sync_bench).
 #pragma once
 
-#include <omp.h>
-
 #include <atomic>
+#include <memory>
+#include <thread>
+#include <type_traits>
+#include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -16,32 +18,38 @@
 
 namespace snowsim {
 
-// Waits for all the threads of a parallel region; spins, then sleeps (a futex wait through
+// A counter that threads wait to see change: they spin, then sleep (a futex wait through
 // std::atomic::wait), so that more threads than cores, or a busy machine, still make progress.
-// Its release orders every write before it before every read after it.
-class SpinBarrier {
+// It counts its own sleepers rather than calling notify_all after every change: libstdc++ 12
+// files the sleepers of all 64-byte aligned atomics under one entry of its table, so one sleeping
+// thread anywhere made every notify_all a system call (1.7 µs instead of 0.35 per meeting in
+// bench/sync_bench).
+class Signal {
  public:
-  SpinBarrier() = default;
-  // Between parallel regions no thread waits and the state is idle: a moved barrier starts anew.
-  SpinBarrier(SpinBarrier&&) noexcept {}
-  SpinBarrier& operator=(SpinBarrier&&) noexcept { return *this; }
+  unsigned load() const { return value_.load(std::memory_order_acquire); }
 
-  void wait(int threads) {
-    const unsigned generation = generation_.load(std::memory_order_acquire);
-    if (arrived_.fetch_add(1, std::memory_order_acq_rel) == threads - 1) {  // the last one
-      arrived_.store(0, std::memory_order_relaxed);
-      // Sequentially consistent, so that notify_all's check for sleepers cannot miss one that
-      // went to sleep on the old generation.
-      generation_.store(generation + 1, std::memory_order_seq_cst);
-      generation_.notify_all();  // no system call unless a thread sleeps
-      return;
-    }
+  // Changes the value; wakes the sleepers with wake().
+  void store(unsigned value) { value_.store(value, std::memory_order_release); }
+  void add(unsigned n) { value_.fetch_add(n, std::memory_order_release); }
+
+  // Wakes those asleep in awaitChange. The fence orders the change before the check for
+  // sleepers, as awaitChange orders its count of sleepers before its check of the value.
+  void wake() {
+    std::atomic_thread_fence(std::memory_order_seq_cst);
+    if (sleepers_.load(std::memory_order_relaxed) > 0) value_.notify_all();
+  }
+
+  // Returns once the value is no longer `old`.
+  void awaitChange(unsigned old) {
+    constexpr int spins_before_sleep = 4096;  // tens to hundreds of µs, by processor
     for (int spins = 0; spins < spins_before_sleep; ++spins) {
-      if (generation_.load(std::memory_order_acquire) != generation) return;
+      if (load() != old) return;
       pause();
     }
-    while (generation_.load(std::memory_order_acquire) == generation)
-      generation_.wait(generation, std::memory_order_acquire);
+    sleepers_.fetch_add(1, std::memory_order_seq_cst);
+    std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with wake()'s
+    while (load() == old) value_.wait(old, std::memory_order_acquire);
+    sleepers_.fetch_sub(1, std::memory_order_relaxed);
   }
 
  private:
@@ -50,72 +58,186 @@ class SpinBarrier {
     _mm_pause();
 #endif
   }
-  static constexpr int spins_before_sleep = 4096;  // tens to hundreds of µs, by processor
-  alignas(64) std::atomic<int> arrived_{0};        // each on its own cache line
-  alignas(64) std::atomic<unsigned> generation_{0};
+  std::atomic<unsigned> value_{0};
+  std::atomic<int> sleepers_{0};
 };
 
-// Runs the parts of each stage on the threads of a parallel region. Outside together(), each
-// forEachPart opens a region of its own. Inside together(), every thread runs the body: code
-// there outside forEachPart and serially runs on every thread, so it may read shared state but
-// never write it.
-class Team {
+// Waits for the threads of a team, each naming itself: a dissemination barrier (Hensgen, Finkel
+// and Manber 1988). In round k thread i signals thread i + 2^k and waits for the signal of thread
+// i - 2^k (mod the thread count), each signal a counter on its own cache line, written by one
+// thread only. The last thread to arrive is released after one cache-line transfer per round,
+// where a shared arrival counter costs three (bench/sync_bench). The signals' release and acquire
+// order every write before the barrier before every read after it, on every thread.
+class SpinBarrier {
  public:
-  // The number of parts of each stage, and whether they run in parallel at all.
-  void configure(int parts, bool parallel) {
-    parts_ = parts;
-    parallel_ = parallel;
+  explicit SpinBarrier(int threads = 1) { resize(threads); }
+
+  // While no thread waits.
+  void resize(int threads) {
+    threads_ = threads;
+    rounds_ = 0;
+    while ((1 << rounds_) < threads) ++rounds_;
+    signals_ = std::make_unique<PaddedSignal[]>(static_cast<size_t>(rounds_) * threads);
+    passed_ = std::make_unique<PaddedCount[]>(threads);
   }
 
-  // body() on every thread of one parallel region if `shared`, else on the calling thread alone
-  // (each stage then opens its own region).
+  void wait(int thread) {
+    const unsigned episode = ++passed_[thread].count;
+    for (int round = 0; round < rounds_; ++round) {
+      Signal& partner = signals_[round * threads_ + (thread + (1 << round)) % threads_].signal;
+      partner.store(episode);
+      Signal& mine = signals_[round * threads_ + thread].signal;
+      // The signaller is at most one episode ahead: it cannot pass this one without us.
+      for (unsigned seen; (seen = mine.load()) != episode && seen != episode + 1;)
+        mine.awaitChange(seen);
+      // Only now, so that the signal's transfer overlaps our wait. A partner asleep in this
+      // round has signalled its own partner already, so every sleeper is woken in turn.
+      partner.wake();
+    }
+  }
+
+ private:
+  struct alignas(64) PaddedSignal {
+    Signal signal;
+  };
+  struct alignas(64) PaddedCount {
+    unsigned count = 0;
+  };
+  int threads_ = 1, rounds_ = 0;
+  std::unique_ptr<PaddedSignal[]> signals_;  // [round * threads + receiver]: the sender's episode
+  std::unique_ptr<PaddedCount[]> passed_;    // per thread: the episodes it has passed
+};
+
+// Runs the parts of each stage on the team's threads: the calling thread is thread 0, and
+// configure() starts one worker thread for each further part. Inside together(), every thread
+// runs the body: code there outside forEachPart and serially runs on every thread, so it may read
+// shared state but never write it, and it must not throw (a worker has no one to throw to).
+// Outside together(), each forEachPart is a meeting of its own.
+class Team {
+ public:
+  Team() = default;
+  // The workers know their team by address: a moved team stops them, and the next configure()
+  // starts new ones.
+  Team(Team&& other) : parts_(other.parts_) { other.stopWorkers(); }
+  Team& operator=(Team&&) = delete;
+  ~Team() { stopWorkers(); }
+
+  // The number of parts of each stage, and whether they run in parallel at all: then one thread
+  // per part.
+  void configure(int parts, bool parallel) {
+    parts_ = parts;
+    const int threads = parallel ? parts : 1;
+    if (threads == threads_) return;
+    stopWorkers();
+    threads_ = threads;
+    barrier_.resize(threads);
+    finished_.resize(threads);
+    const unsigned started = next_.start.load();
+    for (int thread = 1; thread < threads; ++thread)
+      workers_.emplace_back([this, thread, started] { work(thread, started); });
+  }
+
+  // body() on every thread of the team if `shared`, else on the calling thread alone (each stage
+  // then meets on its own).
   template <class F>
   void together(bool shared, F&& body) {
-    if (!shared) {
+    if (!shared || threads_ == 1) {
       body();
       return;
     }
-    shared_ = true;
-#pragma omp parallel num_threads(parts_) if (parallel_)
-    body();
-    shared_ = false;
+    runOnAll(body, true);
   }
 
   // f(part) for every part, then all threads wait for the last part to finish.
   template <class F>
   void forEachPart(F&& f) {
-    if (shared_) {
-      runMyParts(f);
-      barrier_.wait(omp_get_num_threads());
+    if (threads_ == 1) {
+      for (int part = 0; part < parts_; ++part) f(part);
       return;
     }
-#pragma omp parallel num_threads(parts_) if (parallel_)
+    if (!next_.shared) {
+      runOnAll([&] { runMyParts(f); }, false);
+      return;
+    }
     runMyParts(f);
+    barrier_.wait(thread_index);
   }
 
   // f() on one thread, the others waiting for it.
   template <class F>
   void serially(F&& f) {
-    if (!shared_) {
+    if (!next_.shared) {
       f();
       return;
     }
-    if (omp_get_thread_num() == 0) f();
-    barrier_.wait(omp_get_num_threads());
+    if (thread_index == 0) f();
+    barrier_.wait(thread_index);
   }
 
  private:
   template <class F>
   void runMyParts(F& f) {
-    // The runtime may grant fewer threads than parts: a thread then takes several.
-    const int threads = omp_get_num_threads();
-    for (int part = omp_get_thread_num(); part < parts_; part += threads) f(part);
+    for (int part = thread_index; part < parts_; part += threads_) f(part);
   }
 
+  // body() on the calling thread and every worker, returning when all have finished it.
+  template <class F>
+  void runOnAll(F&& body, bool shared) {
+    using Body = std::remove_reference_t<F>;
+    next_.task = [](void* b) { (*static_cast<Body*>(b))(); };
+    next_.body = const_cast<void*>(static_cast<const void*>(&body));
+    next_.shared = shared;
+    start();
+    body();
+    finished_.wait(0);
+    next_.shared = false;
+  }
+
+  // Publishes next_ to the workers.
+  void start() {
+    next_.start.add(1);
+    next_.start.wake();
+  }
+
+  void work(int thread, unsigned seen) {  // seen: the start of the last task before this one
+    thread_index = thread;
+    for (;;) {
+      next_.start.awaitChange(seen);
+      seen = next_.start.load();
+      if (next_.stopping) return;
+      next_.task(next_.body);
+      finished_.wait(thread);
+    }
+  }
+
+  void stopWorkers() {
+    if (workers_.empty()) return;
+    next_.stopping = true;
+    start();
+    for (std::thread& worker : workers_) worker.join();
+    workers_.clear();
+    threads_ = 1;
+    next_.stopping = false;
+  }
+
+  // Which thread of the team this is: 0 for the caller, set once by each worker. The caller of
+  // one team may be a worker of no other.
+  static inline thread_local int thread_index = 0;
+
   int parts_ = 1;
-  bool parallel_ = false;
-  bool shared_ = false;  // inside together(): set before the region opens, read inside it
-  SpinBarrier barrier_;
+  int threads_ = 1;
+  std::vector<std::thread> workers_;
+  // The next task, on one cache line: a worker woken by `start` finds the rest with it. The caller
+  // writes the rest before changing `start`, the workers read it after.
+  struct alignas(64) Task {
+    Signal start;
+    void (*task)(void*) = nullptr;
+    void* body = nullptr;
+    bool shared = false;  // a task of together(): its stages meet at barrier_
+    bool stopping = false;
+  } next_;
+  SpinBarrier barrier_;   // between the stages of a task
+  SpinBarrier finished_;  // at the end of a task
 };
 
 }  // namespace snowsim

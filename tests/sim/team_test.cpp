@@ -1,21 +1,23 @@
 #include "sim/team.h"
 
 #include <gtest/gtest.h>
-#include <omp.h>
 
+#include <chrono>
 #include <numeric>
+#include <set>
+#include <thread>
 #include <vector>
 
 using namespace snowsim;
 
 namespace {
 
-// Rounds of three stages in one shared region of `parts` threads (the region asks for one per
-// part): each part writes, one thread sums, each part reads the sum. A barrier that let a thread
-// run ahead would show a stale sum or a missed part.
-void checkStagesMeetInOrder(int parts) {
+// Rounds of three stages in one shared task of `parts` parts: each part writes, one thread sums,
+// each part reads the sum. A barrier that let a thread run ahead would show a stale sum or a
+// missed part.
+void checkStagesMeetInOrder(int parts, bool parallel = true) {
   Team team;
-  team.configure(parts, true);
+  team.configure(parts, parallel);
   std::vector<long> written(parts), read(parts);
   std::vector<int> runs(parts, 0);
   long sum = 0;
@@ -42,33 +44,55 @@ void checkStagesMeetInOrder(int parts) {
 
 }  // namespace
 
-TEST(Team, StagesOfASharedRegionMeetInOrder) {
+TEST(Team, StagesOfASharedTaskMeetInOrder) {
   checkStagesMeetInOrder(2);
   checkStagesMeetInOrder(3);  // more threads than this machine's two cores: they take turns
+  checkStagesMeetInOrder(5);  // a barrier of three rounds, whose signals form two rings in one
 }
 
-TEST(Team, ARegionGrantedFewerThreadsThanPartsStillRunsEveryPart) {
-  // Inside an active region, with one active level allowed, the runtime grants a nested region
-  // one thread: it must run all three parts of each stage.
-  const int levels = omp_get_max_active_levels();
-  omp_set_max_active_levels(1);
-  int granted = 0;
-#pragma omp parallel num_threads(2)
-#pragma omp single
-  {
-    Team team;
-    team.configure(3, true);
-    team.together(true, [&] {
-#pragma omp single
-      granted = omp_get_num_threads();
-    });
-    checkStagesMeetInOrder(3);
+TEST(Team, ATeamNotInParallelRunsEveryPartOnTheCallingThread) {
+  checkStagesMeetInOrder(3, false);
+  Team team;
+  team.configure(3, false);
+  std::vector<std::thread::id> ran(3);
+  team.together(
+      true, [&] { team.forEachPart([&](int part) { ran[part] = std::this_thread::get_id(); }); });
+  EXPECT_EQ(ran, std::vector<std::thread::id>(3, std::this_thread::get_id()));
+}
+
+TEST(Team, EachPartRunsOnAThreadOfItsOwnAfterEveryConfiguration) {
+  Team team;
+  for (const int parts : {2, 4, 1, 3}) {
+    team.configure(parts, true);
+    std::vector<std::thread::id> ran(parts);
+    team.forEachPart([&](int part) { ran[part] = std::this_thread::get_id(); });
+    EXPECT_EQ(std::set<std::thread::id>(ran.begin(), ran.end()).size(), size_t(parts))
+        << parts << " parts";
+    EXPECT_EQ(ran[0], std::this_thread::get_id()) << "part 0 runs on the caller";
   }
-  omp_set_max_active_levels(levels);
-  EXPECT_EQ(granted, 1);
 }
 
-TEST(Team, OutsideASharedRegionEachStageRunsOnItsOwn) {
+TEST(Team, SleepingThreadsAreWokenForTheNextTaskAndAtBarriers) {
+  // Long enough for the spinning to end: the workers sleep between the tasks, and in a stage
+  // whose part 0 is slow the others sleep at the barrier.
+  const auto nap = [] { std::this_thread::sleep_for(std::chrono::milliseconds(30)); };
+  Team team;
+  team.configure(3, true);
+  std::vector<int> runs(3, 0);
+  for (int task = 0; task < 3; ++task) {
+    nap();
+    team.together(true, [&] {
+      team.forEachPart([&](int part) {
+        if (part == 0) nap();
+        ++runs[part];
+      });
+      team.forEachPart([&](int part) { ++runs[part]; });
+    });
+  }
+  EXPECT_EQ(runs, std::vector<int>(3, 6));
+}
+
+TEST(Team, OutsideASharedTaskEachStageRunsOnItsOwn) {
   Team team;
   team.configure(4, true);
   std::vector<int> runs(4, 0);

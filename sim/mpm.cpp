@@ -91,9 +91,9 @@ void MpmSolver<D>::step(Real dt) {
   }
   prepareParts();
   if (partials_pending_) clearPartialGrids();  // a caller's scatter() this step replaces
-  // The explicit stages share one parallel region (sim/team.h); the semi-implicit solve opens
-  // regions of its own and may throw, so its stages never share one (nothing that runs in the
-  // shared region throws: an exception cannot leave an OpenMP region).
+  // The explicit stages are one task of the team's threads (sim/team.h); the semi-implicit solve
+  // opens OpenMP regions of its own and may throw, so its stages each meet on their own (nothing
+  // in a shared task throws: a worker thread has no one to throw to).
   team_.together(!semi_implicit, [&] {
     binParticles();
     if (steps_ % sorted_storage_interval == 0)  // each part together in memory

@@ -71,7 +71,7 @@ class MpmSolver final : public Solver<D> {
   void velocityFromMomentum(int k);
   void accelerate(int k, Real dt);  // eq. 8 explicit, plus gravity
   void collideNode(int k);
-  // The stages' parallel work, which step() runs in one shared region (sim/team.h); the public
+  // The stages' parallel work, which step() runs as one task of the team (sim/team.h); the public
   // stages above add what a stage run alone needs.
   void rasterise(Real dt);                      // 1 + 3
   void updateGridNodes(Real dt, bool collide);  // 4, and 5 if collide

@@ -90,7 +90,6 @@ void MpmSolver<D>::step(Real dt) {
     step_when_exceeded_ = steps_;
   }
   prepareParts();
-  if (partials_pending_) clearPartialGrids();  // a caller's scatter() this step replaces
   // The explicit stages are one task of the team's threads (sim/team.h); the semi-implicit solve
   // opens OpenMP regions of its own and may throw, so its stages each meet on their own (nothing
   // in a shared task throws: a worker thread has no one to throw to).
@@ -135,7 +134,7 @@ template <int D>
 void MpmSolver<D>::binParticles() {
   const int n = particles_.size();
   const int rows = static_cast<int>(row_start_.size()) - 1;
-  const Real inv = 1 / (grid_.h * block_cells);
+  const Real inv_h = 1 / grid_.h;
   const auto countsOf = [&](int range) {
     return &range_count_[static_cast<size_t>(range) * block_count_];
   };
@@ -154,8 +153,10 @@ void MpmSolver<D>::binParticles() {
     for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
       int b = 0, s = 1;
       for (int a = 0; a < D; ++a) {
-        const int k =
-            std::clamp(static_cast<int>(std::floor(particles_.x[p][a] * inv)), 0, blocks_[a] - 1);
+        // The cell as the kernels compute it (sim/bspline.h), so that a particle never reaches
+        // beyond its row's nodes (reachOfRow).
+        const int cell = static_cast<int>(std::floor(particles_.x[p][a] * inv_h));
+        const int k = std::min(std::max(cell, 0) / block_cells, blocks_[a] - 1);
         first[a] = std::min(first[a], k);
         last[a] = std::max(last[a], k);
         b += k * s;
@@ -326,19 +327,38 @@ void MpmSolver<D>::forUpdatedNodes(F&& f) {
 
 template <int D>
 void MpmSolver<D>::scatter(Real dt) {
-  if (partials_pending_) clearPartialGrids();  // a second scatter replaces the first
   rasterise(dt);
-  partials_pending_ = true;
 }
 
 template <int D>
-void MpmSolver<D>::clearPartialGrids() {
-  for (PartialGrid& g : partial_) {
-    std::fill(g.mass.begin(), g.mass.end(), Real(0));
-    std::fill(g.momentum.begin(), g.momentum.end(), Vec<D>::Zero());
-    std::fill(g.force.begin(), g.force.end(), Vec<D>::Zero());
+NodeBox<D> MpmSolver<D>::reachOfRow(int row) const {
+  NodeBox<D> box = updated_;
+  for (int a = 1; a < D; ++a) {
+    const int block = row % blocks_[a];
+    row /= blocks_[a];
+    // Cells block * b .. block * b + b - 1 reach nodes block * b - 1 .. block * b + b + 1; the
+    // edge blocks also hold the particles binned into them from beyond the domain.
+    const int lo = block == 0 ? 0 : block * block_cells - 1 + grid_.ghost;
+    const int hi =
+        block == blocks_[a] - 1 ? grid_.nodes[a] : (block + 1) * block_cells + 2 + grid_.ghost;
+    box.lo[a] = std::max(box.lo[a], lo);
+    box.hi[a] = std::min(box.hi[a], hi);
   }
-  partials_pending_ = false;
+  return box;
+}
+
+template <int D>
+void MpmSolver<D>::clearReachOfRow(int row) {
+  PartialGrid& g = partial_[rowColour(row)];
+  const NodeBox<D> box = reachOfRow(row);
+  const int width = box.hi[0] - box.lo[0];
+  if (width <= 0 || box.count() == 0) return;
+  for (int line = 0, lines = box.count() / width; line < lines; ++line) {
+    const int first = box.flatIndex(grid_, line * width);
+    std::fill_n(g.mass.begin() + first, width, Real(0));
+    std::fill_n(g.momentum.begin() + first, width, Vec<D>::Zero());
+    if (!g.force.empty()) std::fill_n(g.force.begin() + first, width, Vec<D>::Zero());
+  }
 }
 
 template <int D>
@@ -351,14 +371,10 @@ void MpmSolver<D>::sumPartialGrids(int k) {
   const bool forces = !partial_[0].force.empty();  // MLS's force field stays zero
   Real mass = 0;
   Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
-  for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
-    mass += std::exchange(g.mass[k], 0);
+  for (const PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
+    mass += g.mass[k];
     momentum += g.momentum[k];
-    g.momentum[k].setZero();
-    if (forces) {
-      force += g.force[k];
-      g.force[k].setZero();
-    }
+    if (forces) force += g.force[k];
   }
   fields_.mass[k] = mass;
   fields_.velocity[k] = momentum;
@@ -382,6 +398,7 @@ void MpmSolver<D>::rasteriseWith(Real dt) {
   const bool mls = params_.transfer == MpmTransfer::Mls;
   team_.forEachPart([&](int part) {
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
+      clearReachOfRow(row);  // what the last scatter left there
       PartialGrid& g = partial_[rowColour(row)];
       for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
         const int p = order_[o];
@@ -471,13 +488,11 @@ void MpmSolver<D>::collideNode(int k) {
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
   updateGridNodes(dt, false);
-  partials_pending_ = false;  // summed and cleared
 }
 
 template <int D>
 void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
   updateGridNodes(dt, true);
-  partials_pending_ = false;
 }
 
 template <int D>

@@ -67,7 +67,7 @@ class MpmSolver final : public Solver<D> {
 
  private:
   // Per grid node k, after the scatter: what stages 1, 4 and 5 do to it.
-  void sumPartialGrids(int k);  // and clears them for the next scatter
+  void sumPartialGrids(int k);
   void velocityFromMomentum(int k);
   void accelerate(int k, Real dt);  // eq. 8 explicit, plus gravity
   void collideNode(int k);
@@ -80,7 +80,6 @@ class MpmSolver final : public Solver<D> {
   void rasteriseWith(Real dt);
   template <class Kernel>
   void moveParticlesWith(Real dt);
-  void clearPartialGrids();  // what a scatter left for a grid stage that never came
   template <class Kernel>
   void gatherVelocity(int p);              // 8. v_p by PIC/FLIP, APIC or MLS, and grad v_p
   void updateDeformation(int p, Real dt);  // 7. F_E <- (I + dt grad v) F_E, plasticity (eqs. 10-12)
@@ -96,6 +95,10 @@ class MpmSolver final : public Solver<D> {
   void forEachParticleArray(F&& f);  // f(array) for each per-particle array
   void splitRows();                  // part_rows_ from the sorted particles
   int rowColour(int row) const;
+  // The nodes within updated_ that the particles of row `row` can reach: disjoint for the rows of
+  // one colour, so each row clears its own in its partial grid before scattering to them.
+  NodeBox<D> reachOfRow(int row) const;
+  void clearReachOfRow(int row);
   int rowFirstParticle(int row) const { return row_start_[row]; }
   // f(first, length, block): the blocks of row `row` within the box [lo, hi] of block coordinates,
   // a run of `length` along x from flat block index `first`, at coordinates `block`; nothing if
@@ -162,7 +165,6 @@ class MpmSolver final : public Solver<D> {
     ZeroPageVector<Vec<D>> momentum, force;  // force stays empty for MLS (its force is in momentum)
   };
   std::vector<PartialGrid> partial_;  // one per colour
-  bool partials_pending_ = false;     // scattered to, not yet summed into the grid
   IVec<D> blocks_;
   int block_count_ = 0;
   std::vector<int> row_start_;  // particles of row r: order_[row_start_[r] .. [r + 1])

@@ -17,6 +17,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
 // D_p^{-1} of APIC (Jiang et al. 2015, eq. after 11): 4 / h^2 for quadratic, 3 / h^2 for cubic.
 template <class Kernel>
 Real inertiaInverse(Real h) {
@@ -117,13 +121,12 @@ template <int D>
 void MpmSolver<D>::prepareParts() {
   parts_ = parallel_ ? omp_get_max_threads() : 1;
   team_.configure(parts_, parallel_);
-  if (static_cast<int>(part_share_.size()) == parts_ + 1) return;
+  if (particle_shares_.parts() == parts_) return;
   // The first step, or another thread count.
   part_rows_.resize(parts_ + 1);
   part_measures_.assign(parts_, PartMeasure());
-  part_speed_.assign(parts_, 1);
-  part_share_.resize(parts_ + 1);
-  sharePartsBySpeed();
+  particle_shares_.reset(parts_);
+  line_shares_.reset(parts_);
   range_count_.assign(static_cast<size_t>(parts_) * block_count_, 0);
   range_cursor_.resize(static_cast<size_t>(parts_) * block_count_);
   range_first_block_.assign(parts_, blocks_);  // empty boxes: nothing counted yet
@@ -150,7 +153,8 @@ void MpmSolver<D>::binParticles() {
           row, range_first_block_[r], range_last_block_[r],
           [&](int first, int length, const IVec<D>&) { std::fill_n(count + first, length, 0); });
     IVec<D> first = blocks_, last = IVec<D>::Constant(-1);
-    for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p) {
+    for (int p = particle_shares_.start(r, n), end = particle_shares_.start(r + 1, n); p < end;
+         ++p) {
       int b = 0, s = 1;
       for (int a = 0; a < D; ++a) {
         // The cell as the kernels compute it (sim/bspline.h), so that a particle never reaches
@@ -191,7 +195,7 @@ void MpmSolver<D>::binParticles() {
           }
       });
     }
-    for (int p = shareStart(r, n), end = shareStart(r + 1, n); p < end; ++p)
+    for (int p = particle_shares_.start(r, n), end = particle_shares_.start(r + 1, n); p < end; ++p)
       order_[cursor[particle_block_[p]]++] = p;
     if (r == 0) {  // read after this stage only
       row_start_[rows] = placed;
@@ -272,7 +276,7 @@ void MpmSolver<D>::splitRows() {
   part_rows_[0] = 0;
   int row = 0;
   for (int t = 1; t < parts_; ++t) {
-    const int target = shareStart(t, n);
+    const int target = particle_shares_.start(t, n);
     while (row < rows && rowFirstParticle(row) < target) ++row;
     // The row across the target goes to the part that holds more of it.
     if (row > part_rows_[t - 1] &&
@@ -305,23 +309,21 @@ template <int D>
 template <class F>
 void MpmSolver<D>::forUpdatedNodes(F&& f) {
   const NodeBox<D>& box = updated_;
-  // A part takes the lines of nodes along x that lie in its rows of blocks: the nodes its thread
-  // scattered to, still in its cache, and about its share of the nodes with mass, which cost the
-  // most (interleaving the nodes across threads instead doubled this stage's time on two).
+  // A part takes a run of consecutive lines of nodes along x, about those its thread scattered
+  // to, still in its cache (interleaving the nodes across threads instead doubled this stage's
+  // time on two). The lines are cut by this stage's own measured speeds, not at the rows of the
+  // scatter: a line whose partial grids the other thread wrote costs more, and on the small 2D
+  // bench the upper part took 12-13 µs where the lower took 10.
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
   team_.forEachPart([&](int part) {
-    for (int line = 0; line < lines; ++line) {
-      const int first = box.flatIndex(grid_, line * width);
-      const IVec<D> node = grid_.coords(first);
-      int row = 0;
-      for (int a = D - 1; a >= 1; --a) {
-        const int block = std::clamp(node[a] / block_cells, 0, blocks_[a] - 1);
-        row = row * blocks_[a] + block;
-      }
-      if (row < part_rows_[part] || row >= part_rows_[part + 1]) continue;
-      for (int i = 0; i < width; ++i) f(first + i);  // x is the grid's contiguous axis
+    const auto start = parallel_ ? Clock::now() : Clock::time_point();
+    const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
+    for (int line = first; line < last; ++line) {
+      const int k = box.flatIndex(grid_, line * width);
+      for (int i = 0; i < width; ++i) f(k + i);  // x is the grid's contiguous axis
     }
+    if (parallel_) line_shares_.record(part, last - first, secondsSince(start));
   });
 }
 
@@ -559,7 +561,8 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   team_.forEachPart([&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
-    const int first = shareStart(part, chunks), last = shareStart(part + 1, chunks);
+    const int first = particle_shares_.start(part, chunks),
+              last = particle_shares_.start(part + 1, chunks);
     for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
       for (int o = chunk * energy_chunk; o < std::min(n, (chunk + 1) * energy_chunk); ++o) {
@@ -570,17 +573,20 @@ void MpmSolver<D>::passOverParticles(F&& update) {
       }
       chunk_energy_[chunk] = energy;
     }
-    if (parallel_) {
-      m.particles = std::min(n, last * energy_chunk) - std::min(n, first * energy_chunk);
-      m.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    }
+    if (parallel_)
+      particle_shares_.record(part,
+                              std::min(n, last * energy_chunk) - std::min(n, first * energy_chunk),
+                              secondsSince(start));
     part_measures_[part] = m;
   });
 }
 
 template <int D>
 void MpmSolver<D>::collectMeasures() {
-  if (parallel_) sharePartsBySpeed();
+  if (parallel_) {
+    particle_shares_.update();
+    line_shares_.update();
+  }
   fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
   for (int part = 0; part < parts_; ++part) {  // maxima: exact in any order
@@ -594,36 +600,6 @@ void MpmSolver<D>::collectMeasures() {
   Real lowest = 0;  // min over the domain box of -g.x
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
   energy_ = energy - total_mass_ * lowest;
-}
-
-template <int D>
-void MpmSolver<D>::sharePartsBySpeed() {
-  const auto rate = [&](int part) {  // particles per second, 0 if the part had none
-    const PartMeasure& m = part_measures_[part];
-    return m.particles > 0 && m.seconds > 0 ? m.particles / m.seconds : 0.0;
-  };
-  double mean = 0;
-  int measured = 0;
-  for (int part = 0; part < parts_; ++part)
-    if (rate(part) > 0) mean += rate(part), ++measured;
-  // A part's speed is its rate over the parts' mean, bounded and smoothed over steps, so that one
-  // preempted step does not move the split much; a part that had no particles is tried again at
-  // the mean.
-  if (measured > 0) {
-    mean /= measured;
-    for (int part = 0; part < parts_; ++part) {
-      const double relative = rate(part) > 0 ? std::clamp(rate(part) / mean, 0.25, 4.0) : 1.0;
-      part_speed_[part] = 0.75 * part_speed_[part] + 0.25 * relative;
-    }
-  }
-  double total = 0;
-  for (int part = 0; part < parts_; ++part) total += part_speed_[part];
-  double sum = 0;
-  for (int part = 0; part < parts_; ++part) {
-    part_share_[part] = sum / total;
-    sum += part_speed_[part];
-  }
-  part_share_[parts_] = 1;
 }
 
 template <int D>

@@ -18,6 +18,7 @@
 #include "sim/snow_material.h"
 #include "sim/solver.h"
 #include "sim/team.h"
+#include "sim/work_shares.h"
 #include "sim/zero_page_allocator.h"
 
 namespace snowsim {
@@ -113,22 +114,15 @@ class MpmSolver final : public Solver<D> {
   void forUpdatedNodes(F&& f);
   void updateLame(int p) { lame_[p] = hardenedLame(material_, J_P_[p]); }
 
-  struct PartMeasure {  // the fastest particles of one part, and how long the part took
+  struct PartMeasure {  // the fastest particles of one part
     Real speed = 0, signal = 0;
     bool finite = true;
-    int particles = 0;
-    double seconds = 0;
   };
   // update(p) for each particle, part by part, each part measuring what it leaves.
   template <class F>
   void passOverParticles(F&& update);
-  void collectMeasures();    // the speeds, energy and shares from the parts' measures
-  void measureParticles();   // the speeds and energy of the current state
-  void sharePartsBySpeed();  // part_share_ from part_speed_ and the last pass's times
-  // Where part `part` starts among `count` items cut at the parts' shares.
-  int shareStart(int part, int count) const {
-    return static_cast<int>(std::lround(count * part_share_[part]));
-  }
+  void collectMeasures();   // the speeds, energy and shares from the parts' measures
+  void measureParticles();  // the speeds and energy of the current state
   void measure(int p, PartMeasure& m) const;
   Real particleEnergy(int p) const;
   void checkBlowUp(Real dt) const;
@@ -183,12 +177,10 @@ class MpmSolver final : public Solver<D> {
   int parts_ = 1;
   Team team_;
   std::vector<int> part_rows_;
-  // The threads of a shared machine are not equally fast, and each part's share of the work
-  // follows its thread's measured speed: part t takes the particles from part_share_[t] to
-  // part_share_[t + 1] (fractions of all), the rows split there, and the sorted order too. The
-  // split changes no result.
-  std::vector<double> part_speed_;  // relative to the parts' mean, smoothed over steps
-  std::vector<double> part_share_;
+  // Each part's share of the work follows its measured speed (sim/work_shares.h): the particles
+  // by the particle pass's speeds (the rows split there, and the sorted order too), the grid
+  // stage's lines of nodes by its own.
+  WorkShares particle_shares_, line_shares_;
   std::vector<PartMeasure> part_measures_;
   // Counting-sort state per part r, each sorting one contiguous range of particle indices:
   // range_count_[r * block_count_ + b] counts its particles of block b, range_cursor_ places them;

@@ -73,9 +73,10 @@ void measure(const char* label, const Json& j, int steps, int reps) {
     rate2.push_back(run<D>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
-  // x, v; mass, volume, density, J_P; body, id, block, sorted order; F_E, R_E, C (3D: V_E); Lamé.
-  const size_t bytes = sizeof(Vec<D>) * 2 + sizeof(Real) * 4 + sizeof(int) * 4 +
-                       sizeof(Mat<D>) * (D == 3 ? 4 : 3) + sizeof(Lame);
+  // x, v; mass, volume, density, J_P; body, id, block, sorted order; F_E, R_E, C (3D: V_E); Lamé;
+  // one spare array of each type, which the particles are sorted into.
+  const size_t bytes = sizeof(Vec<D>) * 3 + sizeof(Real) * 5 + sizeof(int) * 5 +
+                       sizeof(Mat<D>) * (D == 3 ? 5 : 4) + sizeof(Lame) * 2;
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f), "
       "bit-identical: %s, %zu bytes/particle\n",

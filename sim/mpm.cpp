@@ -55,6 +55,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   for (int p = 0; p < n; ++p) updateLame(p);
   C_.assign(n, Mat<D>::Zero());
   order_.resize(n);
+  spare_.resize(n);
   particle_block_.resize(n);
   block_count_ = 1;
   for (int a = 0; a < D; ++a) {
@@ -100,7 +101,7 @@ void MpmSolver<D>::step(Real dt) {
   team_.together(!semi_implicit, [&] {
     binParticles();
     if (steps_ % sorted_storage_interval == 0)  // each part together in memory
-      team_.serially([&] { storeInSortedOrder(); });
+      storeInSortedOrder();
     rasterise(dt);  // 1, 3: mass, momentum and forces to the grid
     if (semi_implicit) {
       updateGridNodes(dt, false);   // 4: explicit update
@@ -253,20 +254,22 @@ void MpmSolver<D>::forEachParticleArray(F&& f) {
 
 template <int D>
 void MpmSolver<D>::storeInSortedOrder() {
-  // Moves particle order_[o] to place o in every array, then order_ is the identity. In place,
-  // one cycle of the permutation at a time: no second copy of the particles.
-  const int n = particles_.size();
-  for (int start = 0; start < n; ++start) {
-    if (order_[start] == start) continue;  // in place already, or its cycle is done
-    forEachParticleArray([&](auto& array) {
-      auto held = std::move(array[start]);
-      int o = start;
-      for (int from = order_[o]; from != start; o = from, from = order_[from])
-        array[o] = std::move(array[from]);
-      array[o] = std::move(held);
-    });
-    for (int o = start; order_[o] != o;) o = std::exchange(order_[o], o);
-  }
+  // Each array is gathered in the sorted order into the spare array of its type, each part
+  // writing the places its particle pass will read, and the two swap; then order_ is the
+  // identity. A part's particles end up in its own thread's cache, where an in-place permutation
+  // on one thread left them all in that thread's.
+  const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
+  const auto places = [&](int part, auto&& f) {  // the places of the part's particle pass
+    const int first = particle_shares_.start(part, chunks) * energy_chunk;
+    const int last = std::min(n, particle_shares_.start(part + 1, chunks) * energy_chunk);
+    for (int o = first; o < last; ++o) f(o);
+  };
+  forEachParticleArray([&](auto& array) {
+    auto& spare = spare_.of(array);
+    team_.forEachPart([&](int part) { places(part, [&](int o) { spare[o] = array[order_[o]]; }); });
+    team_.serially([&] { array.swap(spare); });
+  });
+  team_.forEachPart([&](int part) { places(part, [&](int o) { order_[o] = o; }); });
 }
 
 template <int D>

@@ -169,7 +169,22 @@ class MpmSolver final : public Solver<D> {
   // machine cost up to 25% of the particle pass on two threads (README, "Speed"). In between,
   // few particles change block and the stored order stays close to the sorted one. A period
   // in steps, never in threads or time, so the results stay the same on any thread count.
-  static constexpr int sorted_storage_interval = 64;
+  static constexpr int sorted_storage_interval = 16;
+  struct SpareArrays {  // one per type of particle array: storeInSortedOrder's target
+    std::vector<Vec<D>> vec;
+    std::vector<Mat<D>> mat;
+    std::vector<Real> real;
+    std::vector<int> integer;
+    std::vector<Lame> lame;
+    void resize(int n) {
+      vec.resize(n), mat.resize(n), real.resize(n), integer.resize(n), lame.resize(n);
+    }
+    std::vector<Vec<D>>& of(const std::vector<Vec<D>>&) { return vec; }
+    std::vector<Mat<D>>& of(const std::vector<Mat<D>>&) { return mat; }
+    std::vector<Real>& of(const std::vector<Real>&) { return real; }
+    std::vector<int>& of(const std::vector<int>&) { return integer; }
+    std::vector<Lame>& of(const std::vector<Lame>&) { return lame; }
+  } spare_;
   // The work is cut into parts, one per thread. In the scatter and the grid stage part t has the
   // rows part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same
   // shares, so the particles and the grid nodes a thread writes in one stage are mostly the ones

@@ -72,7 +72,6 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles)
   }
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   prepareParts();
-  binParticles();
   scatter(0);
   updateGridVelocities(0);  // the grid's mass, for the volumes
   computeParticleVolumes();
@@ -332,6 +331,9 @@ void MpmSolver<D>::forUpdatedNodes(F&& f) {
 
 template <int D>
 void MpmSolver<D>::scatter(Real dt) {
+  // Each row clears and fills only the nodes its particles can reach from where they were
+  // binned: binned anew, a particle that moved since cannot write beyond its row's reach.
+  binParticles();
   rasterise(dt);
 }
 
@@ -557,9 +559,9 @@ void MpmSolver<D>::moveParticlesWith(Real dt) {
 template <int D>
 template <class F>
 void MpmSolver<D>::passOverParticles(F&& update) {
-  // The particles in the scatter's order, cut at the parts' shares: a thread gathers from the
-  // grid nodes its part of the rows scattered to, still in its cache. The energy is summed per
-  // chunk of the order, then the chunks in order: the same sum on any thread count.
+  // The particles in the scatter's order, cut at the parts' shares: a thread moves the particles
+  // it scattered and stored, still in its cache. The energy is summed per chunk of the order,
+  // then the chunks in order: the same sum on any thread count.
   const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
   team_.forEachPart([&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();

@@ -52,12 +52,13 @@ class MpmSolver final : public Solver<D> {
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
-  // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7) into the partial grids of the rows.
+  // 1 + 3. P2G mass, momentum (eq. 1) and forces (eq. 7) into the partial grids of the rows,
+  // after binning the particles into the rows where they are now.
   void scatter(Real dt);
   // 2. First step only, after updateGridVelocities: rho_p^0, V_p^0 (section 4 step 2).
   void computeParticleVolumes();
   // 4. Once after each scatter: the grid's mass, momentum and force are the sums of the partial
-  // grids (which it clears), v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
+  // grids, v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
   void updateGridVelocities(Real dt);
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -90,7 +91,8 @@ class MpmSolver final : public Solver<D> {
   void prepareParts();  // parts_ and their state, for the thread count of this step
   void binParticles();
   void findActiveNodes();  // active_ and updated_ from the blocks the particles are in
-  // The particle arrays permuted into the sorted order of the last binParticles().
+  // The particle arrays permuted into the sorted order of the last binParticles(). Each array
+  // swaps with a spare one: the arrays' data pointers change.
   void storeInSortedOrder();
   template <class F>
   void forEachParticleArray(F&& f);  // f(array) for each per-particle array
@@ -185,10 +187,10 @@ class MpmSolver final : public Solver<D> {
     std::vector<int>& of(const std::vector<int>&) { return integer; }
     std::vector<Lame>& of(const std::vector<Lame>&) { return lame; }
   } spare_;
-  // The work is cut into parts, one per thread. In the scatter and the grid stage part t has the
-  // rows part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same
-  // shares, so the particles and the grid nodes a thread writes in one stage are mostly the ones
-  // it reads in the next, from its own cache.
+  // The work is cut into parts, one per thread. In the scatter part t has the rows
+  // part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same
+  // shares, so the particles a thread writes in one stage are mostly the ones it reads in the
+  // next, from its own cache. The grid stage cuts its node lines by its own speeds.
   int parts_ = 1;
   Team team_;
   std::vector<int> part_rows_;

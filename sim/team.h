@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstddef>
 #include <memory>
 #include <thread>
 #include <type_traits>
@@ -110,7 +111,8 @@ class SpinBarrier {
 // Runs the parts of each stage on the team's threads: the calling thread is thread 0, and
 // configure() starts one worker thread for each further part. Inside together(), every thread
 // runs the body: code there outside forEachPart and serially runs on every thread, so it may read
-// shared state but never write it, and it must not throw (a worker has no one to throw to).
+// shared state but never write it, and it must not throw on any thread (a worker has no one to
+// throw to, and a caller that threw would leave the workers waiting for it).
 // Outside together(), each forEachPart is a meeting of its own.
 class Team {
  public:

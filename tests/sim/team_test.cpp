@@ -72,6 +72,17 @@ TEST(Team, EachPartRunsOnAThreadOfItsOwnAfterEveryConfiguration) {
   }
 }
 
+TEST(Team, AMovedTeamStartsWorkersOfItsOwn) {
+  Team first;
+  first.configure(3, true);
+  first.forEachPart([](int) {});
+  Team moved(std::move(first));  // the first team's workers stop; they knew it by address
+  moved.configure(3, true);
+  std::vector<std::thread::id> ran(3);
+  moved.forEachPart([&](int part) { ran[part] = std::this_thread::get_id(); });
+  EXPECT_EQ(std::set<std::thread::id>(ran.begin(), ran.end()).size(), 3u);
+}
+
 TEST(Team, SleepingThreadsAreWokenForTheNextTaskAndAtBarriers) {
   // Long enough for the spinning to end: the workers sleep between the tasks, and in a stage
   // whose part 0 is slow the others sleep at the barrier.

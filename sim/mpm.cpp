@@ -257,11 +257,9 @@ void MpmSolver<D>::storeInSortedOrder() {
   // writing the places its particle pass will read, and the two swap; then order_ is the
   // identity. A part's particles end up in its own thread's cache, where an in-place permutation
   // on one thread left them all in that thread's.
-  const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
   const auto places = [&](int part, auto&& f) {  // the places of the part's particle pass
-    const int first = particle_shares_.start(part, chunks) * energy_chunk;
-    const int last = std::min(n, particle_shares_.start(part + 1, chunks) * energy_chunk);
-    for (int o = first; o < last; ++o) f(o);
+    const auto [first, last] = passChunks(part);
+    for (int o = chunkStart(first); o < chunkStart(last); ++o) f(o);
   };
   forEachParticleArray([&](auto& array) {
     auto& spare = spare_.of(array);
@@ -562,15 +560,13 @@ void MpmSolver<D>::passOverParticles(F&& update) {
   // The particles in the scatter's order, cut at the parts' shares: a thread moves the particles
   // it scattered and stored, still in its cache. The energy is summed per chunk of the order,
   // then the chunks in order: the same sum on any thread count.
-  const int n = particles_.size(), chunks = static_cast<int>(chunk_energy_.size());
   team_.forEachPart([&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
-    const int first = particle_shares_.start(part, chunks),
-              last = particle_shares_.start(part + 1, chunks);
+    const auto [first, last] = passChunks(part);
     for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
-      for (int o = chunk * energy_chunk; o < std::min(n, (chunk + 1) * energy_chunk); ++o) {
+      for (int o = chunkStart(chunk); o < chunkStart(chunk + 1); ++o) {
         const int p = order_[o];
         update(p);
         measure(p, m);
@@ -579,11 +575,15 @@ void MpmSolver<D>::passOverParticles(F&& update) {
       chunk_energy_[chunk] = energy;
     }
     if (parallel_)
-      particle_shares_.record(part,
-                              std::min(n, last * energy_chunk) - std::min(n, first * energy_chunk),
-                              secondsSince(start));
+      particle_shares_.record(part, chunkStart(last) - chunkStart(first), secondsSince(start));
     part_measures_[part] = m;
   });
+}
+
+template <int D>
+std::pair<int, int> MpmSolver<D>::passChunks(int part) const {
+  const int chunks = static_cast<int>(chunk_energy_.size());
+  return {particle_shares_.start(part, chunks), particle_shares_.start(part + 1, chunks)};
 }
 
 template <int D>

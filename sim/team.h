@@ -1,7 +1,7 @@
 // The threads that share the stages of one MPM step. A stage is cut into parts, one per thread;
 // each part runs on one thread and the stages meet at barriers. The team keeps its own worker
 // threads, which wait for the next step spinning, then asleep. On this machine an empty OpenMP
-// parallel region costs 3.1-3.4 µs and an empty task of the team 0.35-0.7 µs, against a
+// parallel region costs 3.0-3.4 µs and an empty task of the team 0.35-0.73 µs, against a
 // two-thread explicit step of about 210 µs on the small 2D bench (bench/sync_bench).
 #pragma once
 

@@ -119,18 +119,18 @@ void MpmSolver<D>::step(Real dt) {
 
 template <int D>
 void MpmSolver<D>::prepareParts() {
-  parts_ = parallel_ ? omp_get_max_threads() : 1;
-  team_.configure(parts_, parallel_);
-  if (particle_shares_.parts() == parts_) return;
+  team_.configure(parallel_ ? omp_get_max_threads() : 1, parallel_);
+  const int parts = this->parts();
+  if (particle_shares_.parts() == parts) return;
   // The first step, or another thread count.
-  part_rows_.resize(parts_ + 1);
-  part_measures_.assign(parts_, PartMeasure());
-  particle_shares_.reset(parts_);
-  line_shares_.reset(parts_);
-  range_count_.assign(static_cast<size_t>(parts_) * block_count_, 0);
-  range_cursor_.resize(static_cast<size_t>(parts_) * block_count_);
-  range_first_block_.assign(parts_, blocks_);  // empty boxes: nothing counted yet
-  range_last_block_.assign(parts_, IVec<D>::Constant(-1));
+  part_rows_.resize(parts + 1);
+  part_measures_.assign(parts, PartMeasure());
+  particle_shares_.reset(parts);
+  line_shares_.reset(parts);
+  range_count_.assign(static_cast<size_t>(parts) * block_count_, 0);
+  range_cursor_.resize(static_cast<size_t>(parts) * block_count_);
+  range_first_block_.assign(parts, blocks_);  // empty boxes: nothing counted yet
+  range_last_block_.assign(parts, IVec<D>::Constant(-1));
 }
 
 template <int D>
@@ -175,8 +175,9 @@ void MpmSolver<D>::binParticles() {
   // Each part sums the prefix itself rather than waiting for one thread to sum it: a barrier
   // and, on two threads, the cursors crossing between caches twice.
   team_.forEachPart([&](int r) {
+    const int ranges = parts();
     IVec<D> lo = blocks_, hi = IVec<D>::Constant(-1);  // the union of the ranges' boxes
-    for (int range = 0; range < parts_; ++range) {
+    for (int range = 0; range < ranges; ++range) {
       lo = lo.cwiseMin(range_first_block_[range]);
       hi = hi.cwiseMax(range_last_block_[range]);
     }
@@ -186,7 +187,7 @@ void MpmSolver<D>::binParticles() {
       if (r == 0) row_start_[row] = placed;
       forBlocksOfRowInBox(row, lo, hi, [&](int first, int length, IVec<D> block) {
         for (int b = first; b < first + length; ++b, ++block[0])
-          for (int range = 0; range < parts_; ++range) {
+          for (int range = 0; range < ranges; ++range) {
             if ((block.array() < range_first_block_[range].array()).any() ||
                 (block.array() > range_last_block_[range].array()).any())
               continue;  // outside its box: none of its particles
@@ -222,7 +223,7 @@ void MpmSolver<D>::forBlocksOfRowInBox(int row, const IVec<D>& lo, const IVec<D>
 template <int D>
 void MpmSolver<D>::findActiveNodes() {
   IVec<D> first_block = blocks_, last_block = IVec<D>::Constant(-1);
-  for (int r = 0; r < parts_; ++r) {
+  for (int r = 0; r < parts(); ++r) {
     first_block = first_block.cwiseMin(range_first_block_[r]);
     last_block = last_block.cwiseMax(range_last_block_[r]);
   }
@@ -275,7 +276,7 @@ void MpmSolver<D>::splitRows() {
   const int n = particles_.size();
   part_rows_[0] = 0;
   int row = 0;
-  for (int t = 1; t < parts_; ++t) {
+  for (int t = 1; t < parts(); ++t) {
     const int target = particle_shares_.start(t, n);
     while (row < rows && rowFirstParticle(row) < target) ++row;
     // The row across the target goes to the part that holds more of it.
@@ -284,7 +285,7 @@ void MpmSolver<D>::splitRows() {
       --row;
     part_rows_[t] = row;
   }
-  part_rows_[parts_] = rows;
+  part_rows_[parts()] = rows;
 }
 
 template <int D>
@@ -594,7 +595,7 @@ void MpmSolver<D>::collectMeasures() {
   }
   fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
-  for (int part = 0; part < parts_; ++part) {  // maxima: exact in any order
+  for (int part = 0; part < parts(); ++part) {  // maxima: exact in any order
     fastest_speed_ = std::max(fastest_speed_, part_measures_[part].speed);
     fastest_signal_ = std::max(fastest_signal_, part_measures_[part].signal);
     finite_ = finite_ && part_measures_[part].finite;

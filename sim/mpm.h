@@ -89,7 +89,8 @@ class MpmSolver final : public Solver<D> {
   void collideParticle(int p);             // 9. particle-based body collisions (section 8)
   void advect(int p, Real dt);             // 10. x += dt v, kept out of colliders and in the domain
 
-  void prepareParts();  // parts_ and their state, for the thread count of this step
+  void prepareParts();  // the team's parts and their state, for the thread count of this step
+  int parts() const { return team_.parts(); }
   void binParticles();
   void findActiveNodes();  // active_ and updated_ from the blocks the particles are in
   // The particle arrays permuted into the sorted order of the last binParticles(). Each array
@@ -197,8 +198,7 @@ class MpmSolver final : public Solver<D> {
   // part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same
   // shares, so the particles a thread writes in one stage are mostly the ones it reads in the
   // next, from its own cache. The grid stage cuts its node lines by its own speeds.
-  int parts_ = 1;
-  Team team_;
+  Team team_;  // its parts() is the number of parts
   std::vector<int> part_rows_;
   // Each part's share of the work follows its measured speed (sim/work_shares.h): the particles
   // by the particle pass's speeds (the rows split there, and the sorted order too), the grid

@@ -138,6 +138,8 @@ class Team {
       workers_.emplace_back([this, thread, started] { work(thread, started); });
   }
 
+  int parts() const { return parts_; }
+
   // body() on every thread of the team if `shared`, else on the calling thread alone (each stage
   // then meets on its own).
   template <class F>

@@ -1,15 +1,19 @@
 // Speed of MPM snow: particle-steps per second (median of repetitions), 2D and 3D explicit MLS with
-// quadratic weights, 1 and 2 threads (and whether they agree bit for bit), bytes per particle.
-// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d]
+// quadratic weights, 1 and 2 threads (and whether they agree bit for bit), bytes per particle;
+// with "profile", also where each step's time goes, stage by stage and thread by thread.
+// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d] [profile]
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/json_fields.h"
@@ -60,6 +64,62 @@ double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& posi
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   positions = s.particles().x;
   return double(positions.size()) * steps / sec;
+}
+
+// Each thread's stage times over `steps` steps of one run on the given thread count.
+template <int D>
+std::vector<std::vector<StageTime>> profiledRun(const Scene& scene, int threads, int steps) {
+  omp_set_num_threads(threads);
+  MpmSolver<D> s(scene, sampleBodies<D>(scene));
+  const Real dt = 0.5 * s.cflTimeStep();
+  s.profileStages(true);
+  for (int k = 0; k < steps; ++k) s.step(dt);
+  std::vector<std::vector<StageTime>> times;
+  for (int thread = 0; thread < s.profiledThreads(); ++thread)
+    times.push_back(s.stageTimes(thread));
+  return times;
+}
+
+// Microseconds per step of each stage (median of the repetitions, 1 and 2 threads alternating):
+// on one thread, and on each of two threads the work of its parts and the wait for the other.
+// The sort's stages run every 16th step, so their figures are that cost spread over the steps.
+template <int D>
+void profile(const char* label, const Json& j, int steps, int reps) {
+  const Scene scene = parseScene(j, "bench");
+  enum Column { alone, work0, wait0, work1, wait1, columns };
+  std::vector<std::string_view> stages;  // in the order first met
+  std::map<std::string_view, std::array<std::vector<double>, columns>> samples;
+  const auto add = [&](std::string_view stage, int column, double seconds) {
+    if (samples.count(stage) == 0) stages.push_back(stage);
+    samples[stage][column].push_back(seconds / steps * 1e6);
+  };
+  for (int r = 0; r < reps; ++r) {
+    const auto one = profiledRun<D>(scene, 1, steps);
+    for (const StageTime& t : one[0]) add(t.stage, alone, t.work_seconds);
+    const auto two = profiledRun<D>(scene, 2, steps);
+    for (int thread = 0; thread < std::min<int>(2, two.size()); ++thread)
+      for (const StageTime& t : two[thread]) {
+        add(t.stage, thread == 0 ? work0 : work1, t.work_seconds);
+        add(t.stage, thread == 0 ? wait0 : wait1, t.wait_seconds);
+      }
+  }
+  std::printf("%s, µs per step: 1 thread; 2 threads, each thread's work + wait\n", label);
+  std::array<double, columns> sums{};
+  for (const std::string_view stage : stages) {
+    std::printf("  %-18.*s", int(stage.size()), stage.data());
+    for (int c = 0; c < columns; ++c) {
+      const std::vector<double>& v = samples[stage][c];
+      const double value = v.empty() ? 0 : median(v);
+      sums[c] += value;
+      std::printf(c == work0 || c == work1 ? "  %7.1f"
+                  : c == alone             ? "  %7.1f  |"
+                                           : " + %5.1f",
+                  value);
+    }
+    std::printf("\n");
+  }
+  std::printf("  %-18s  %7.1f  |  %7.1f + %5.1f  %7.1f + %5.1f  (sums of the medians)\n",
+              "all stages", sums[alone], sums[work0], sums[wait0], sums[work1], sums[wait1]);
 }
 
 // Seconds for each of `threads` threads to run the same arithmetic at once, no memory shared:
@@ -165,14 +225,23 @@ int main(int argc, char** argv) {
                  only.c_str());
     return 2;
   }
+  const std::string extra = argc > 4 ? argv[4] : "";
+  if (!extra.empty() && extra != "profile") {
+    std::fprintf(stderr, "mpm_bench: the fourth argument '%s' is not 'profile'\n", extra.c_str());
+    return 2;
+  }
+  const bool profiled = extra == "profile";
   if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
     std::printf("core-to-core round trip %.0f ns\n", round_trip);
   else
     std::printf("core-to-core round trip not measured: two threads did not run at once\n");
+  const auto run = [&]<int D>(const char* label, const Json& scene) {
+    measure<D>(label, scene, steps, reps);
+    if (profiled) profile<D>(label, scene, steps, reps);
+  };
   if (only == "all" || only == "2d-small")
-    measure<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44), steps, reps);
+    run.operator()<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44));
   if (only == "all" || only == "2d-large")
-    measure<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6), steps, reps);
-  if (only == "all" || only == "3d")
-    measure<3>("3D MLS quadratic", sceneJson(3, 32, 0.5), steps, reps);
+    run.operator()<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6));
+  if (only == "all" || only == "3d") run.operator()<3>("3D MLS quadratic", sceneJson(3, 32, 0.5));
 }

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
   Team team;
   team.configure(2, true);
   const double task = perMeeting([&] {
-    for (int i = 0; i < meetings; ++i) team.forEachPart([](int) {});
+    for (int i = 0; i < meetings; ++i) team.forEachPart("stage", [](int) {});
   });
   SpinBarrier spin(2);
   const double spinning = perMeeting([&] {

@@ -146,7 +146,7 @@ void MpmSolver<D>::binParticles() {
   // its particles. A stable sort: its result does not depend on how the particles were split.
   // A range's counts are zero outside the box of blocks its particles were in, which is all
   // that is cleared and summed: the snow's blocks, not the domain's.
-  team_.forEachPart([&](int r) {
+  team_.forEachPart("bin: count", [&](int r) {
     int* count = countsOf(r);
     for (int row = 0; row < rows; ++row)
       forBlocksOfRowInBox(
@@ -174,7 +174,7 @@ void MpmSolver<D>::binParticles() {
   });
   // Each part sums the prefix itself rather than waiting for one thread to sum it: a barrier
   // and, on two threads, the cursors crossing between caches twice.
-  team_.forEachPart([&](int r) {
+  team_.forEachPart("bin: place", [&](int r) {
     const int ranges = parts();
     IVec<D> lo = blocks_, hi = IVec<D>::Constant(-1);  // the union of the ranges' boxes
     for (int range = 0; range < ranges; ++range) {
@@ -264,10 +264,11 @@ void MpmSolver<D>::storeInSortedOrder() {
   };
   forEachParticleArray([&](auto& array) {
     auto& spare = spare_.of(array);
-    team_.forEachPart([&](int part) { places(part, [&](int o) { spare[o] = array[order_[o]]; }); });
-    team_.serially([&] { array.swap(spare); });
+    team_.forEachPart("sort: gather",
+                      [&](int part) { places(part, [&](int o) { spare[o] = array[order_[o]]; }); });
+    team_.serially("sort: swap", [&] { array.swap(spare); });
   });
-  team_.forEachPart([&](int part) { places(part, [&](int o) { order_[o] = o; }); });
+  team_.forEachPart("sort: order", [&](int part) { places(part, [&](int o) { order_[o] = o; }); });
 }
 
 template <int D>
@@ -317,7 +318,7 @@ void MpmSolver<D>::forUpdatedNodes(F&& f) {
   // bench the upper part took 12-13 µs where the lower took 10.
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
-  team_.forEachPart([&](int part) {
+  team_.forEachPart("grid update", [&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
     for (int line = first; line < last; ++line) {
@@ -402,7 +403,7 @@ void MpmSolver<D>::rasteriseWith(Real dt) {
   const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params_.transfer != MpmTransfer::PicFlip;
   const bool mls = params_.transfer == MpmTransfer::Mls;
-  team_.forEachPart([&](int part) {
+  team_.forEachPart("rasterise", [&](int part) {
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
       clearReachOfRow(row);  // what the last scatter left there
       PartialGrid& g = partial_[rowColour(row)];
@@ -547,7 +548,7 @@ template <int D>
 template <class Kernel>
 void MpmSolver<D>::moveParticlesWith(Real dt) {
   // One pass: each particle's arrays are loaded once for the four stages, not once per stage.
-  passOverParticles([&](int p) {
+  passOverParticles("move particles", [&](int p) {
     gatherVelocity<Kernel>(p);  // 8 (gathered first: 7 needs grad v)
     updateDeformation(p, dt);   // 7
     collideParticle(p);         // 9
@@ -557,11 +558,11 @@ void MpmSolver<D>::moveParticlesWith(Real dt) {
 
 template <int D>
 template <class F>
-void MpmSolver<D>::passOverParticles(F&& update) {
+void MpmSolver<D>::passOverParticles(std::string_view stage, F&& update) {
   // The particles in the scatter's order, cut at the parts' shares: a thread moves the particles
   // it scattered and stored, still in its cache. The energy is summed per chunk of the order,
   // then the chunks in order: the same sum on any thread count.
-  team_.forEachPart([&](int part) {
+  team_.forEachPart(stage, [&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
     const auto [first, last] = passChunks(part);
@@ -610,7 +611,7 @@ void MpmSolver<D>::collectMeasures() {
 
 template <int D>
 void MpmSolver<D>::measureParticles() {
-  passOverParticles([](int) {});
+  passOverParticles("measure particles", [](int) {});
   collectMeasures();
 }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -50,6 +51,11 @@ class MpmSolver final : public Solver<D> {
   Real advectionTimeStep() const;
   // The Krylov solve of the last semi-implicit step.
   const KrylovResult& lastImplicitSolve() const { return last_solve_; }
+  // Where the steps' time goes, stage by stage and thread by thread (sim/team.h): on from the
+  // next step until turned off. bench/mpm_bench prints it.
+  void profileStages(bool on) { team_.profileStages(on); }
+  int profiledThreads() const { return team_.threads(); }
+  const std::vector<StageTime>& stageTimes(int thread) const { return team_.stageTimes(thread); }
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
@@ -124,7 +130,7 @@ class MpmSolver final : public Solver<D> {
   };
   // update(p) for each particle, part by part, each part measuring what it leaves.
   template <class F>
-  void passOverParticles(F&& update);
+  void passOverParticles(std::string_view stage, F&& update);
   void collectMeasures();   // the speeds, energy and shares from the parts' measures
   void measureParticles();  // the speeds and energy of the current state
   // The chunks of the sorted order that part `part`'s particle pass takes, [first, last).

@@ -6,8 +6,10 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <memory>
+#include <string_view>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -108,6 +110,14 @@ class SpinBarrier {
   std::unique_ptr<PaddedCount[]> passed_;    // per thread: the episodes it has passed
 };
 
+// Where one thread's time went in one stage, over the steps profiled: running its parts, and
+// waiting at the stage's end for the other threads.
+struct StageTime {
+  std::string_view stage;
+  double work_seconds = 0, wait_seconds = 0;
+  long meetings = 0;
+};
+
 // Runs the parts of each stage on the team's threads: the calling thread is thread 0, and
 // configure() starts one worker thread for each further part. Inside together(), every thread
 // runs the body: code there outside forEachPart and serially runs on every thread, so it may read
@@ -131,6 +141,7 @@ class Team {
     if (threads == threads_) return;
     stopWorkers();
     threads_ = threads;
+    if (profiling_) profile_.assign(threads, {});
     barrier_.resize(threads);
     finished_.resize(threads);
     const unsigned started = next_.start.load();
@@ -151,36 +162,73 @@ class Team {
     runOnAll(body, true);
   }
 
-  // f(part) for every part, then all threads wait for the last part to finish.
+  // f(part) for every part of the stage named `stage`, then all threads wait for the last part
+  // to finish. A profile keeps the name: it must outlive the team (a string literal does).
   template <class F>
-  void forEachPart(F&& f) {
+  void forEachPart(std::string_view stage, F&& f) {
+    const auto my_parts = [&] {
+      for (int part = thread_index; part < parts_; part += threads_) f(part);
+    };
     if (threads_ == 1) {
-      for (int part = 0; part < parts_; ++part) f(part);
-      return;
+      runStage(stage, my_parts, [] {});
+    } else if (!next_.shared) {  // the wait is runOnAll's, not profiled
+      runOnAll([&] { runStage(stage, my_parts, [] {}); }, false);
+    } else {
+      runStage(stage, my_parts, [&] { barrier_.wait(thread_index); });
     }
-    if (!next_.shared) {
-      runOnAll([&] { runMyParts(f); }, false);
-      return;
-    }
-    runMyParts(f);
-    barrier_.wait(thread_index);
   }
 
   // f() on one thread, the others waiting for it.
   template <class F>
-  void serially(F&& f) {
+  void serially(std::string_view stage, F&& f) {
     if (!next_.shared) {
-      f();
+      runStage(stage, f, [] {});
       return;
     }
-    if (thread_index == 0) f();
-    barrier_.wait(thread_index);
+    runStage(
+        stage,
+        [&] {
+          if (thread_index == 0) f();
+        },
+        [&] { barrier_.wait(thread_index); });
   }
 
+  // Profiling: while on, each thread adds the time of each stage to its own StageTimes, one per
+  // stage name in the order first met. Turning it on clears the last profile; turn it on and off
+  // between steps only.
+  void profileStages(bool on) {
+    profiling_ = on;
+    if (on) profile_.assign(threads_, {});
+  }
+  // Thread `thread`'s times (0 is the caller), for `threads()` threads.
+  const std::vector<StageTime>& stageTimes(int thread) const { return profile_[thread]; }
+  int threads() const { return threads_; }
+
  private:
-  template <class F>
-  void runMyParts(F& f) {
-    for (int part = thread_index; part < parts_; part += threads_) f(part);
+  using Clock = std::chrono::steady_clock;
+
+  template <class Work, class Meet>
+  void runStage(std::string_view stage, Work&& work, Meet&& meet) {
+    if (!profiling_) {
+      work();
+      meet();
+      return;
+    }
+    const auto start = Clock::now();
+    work();
+    const auto worked = Clock::now();
+    meet();
+    StageTime& time = timeOf(stage);
+    time.work_seconds += std::chrono::duration<double>(worked - start).count();
+    time.wait_seconds += std::chrono::duration<double>(Clock::now() - worked).count();
+    ++time.meetings;
+  }
+
+  StageTime& timeOf(std::string_view stage) {
+    std::vector<StageTime>& mine = profile_[thread_index];
+    for (StageTime& time : mine)
+      if (time.stage == stage) return time;
+    return mine.emplace_back(StageTime{stage});
   }
 
   // body() on the calling thread and every worker, returning when all have finished it.
@@ -229,6 +277,8 @@ class Team {
 
   int parts_ = 1;
   int threads_ = 1;
+  bool profiling_ = false;
+  std::vector<std::vector<StageTime>> profile_;  // per thread
   std::vector<std::thread> workers_;
   // The next task, on one cache line: a worker woken by `start` finds the rest with it. The caller
   // writes the rest before changing `start`, the workers read it after.

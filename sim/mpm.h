@@ -52,7 +52,8 @@ class MpmSolver final : public Solver<D> {
   // The Krylov solve of the last semi-implicit step.
   const KrylovResult& lastImplicitSolve() const { return last_solve_; }
   // Where the steps' time goes, stage by stage and thread by thread (sim/team.h): on from the
-  // next step until turned off. bench/mpm_bench prints it.
+  // next step until turned off. The semi-implicit solve's own OpenMP regions are not in it.
+  // bench/mpm_bench prints it.
   void profileStages(bool on) { team_.profileStages(on); }
   int profiledThreads() const { return team_.threads(); }
   const std::vector<StageTime>& stageTimes(int thread) const { return team_.stageTimes(thread); }

@@ -53,31 +53,28 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-// Particle-steps per second of one run of the scene on the given thread count; its positions.
+// Each thread's stage times over one run (sim/team.h).
+using StageProfile = std::vector<std::vector<StageTime>>;
+
+// Particle-steps per second of one run of the scene on the given thread count; its positions,
+// and, if asked for, its stage profile.
 template <int D>
-double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions) {
+double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions,
+           StageProfile* profile = nullptr) {
   omp_set_num_threads(threads);
   MpmSolver<D> s(scene, sampleBodies<D>(scene));
   const Real dt = 0.5 * s.cflTimeStep();
+  s.profileStages(profile != nullptr);
   const auto t0 = std::chrono::steady_clock::now();
   for (int k = 0; k < steps; ++k) s.step(dt);
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   positions = s.particles().x;
+  if (profile != nullptr) {
+    profile->clear();
+    for (int thread = 0; thread < s.profiledThreads(); ++thread)
+      profile->push_back(s.stageTimes(thread));
+  }
   return double(positions.size()) * steps / sec;
-}
-
-// Each thread's stage times over `steps` steps of one run on the given thread count.
-template <int D>
-std::vector<std::vector<StageTime>> profiledRun(const Scene& scene, int threads, int steps) {
-  omp_set_num_threads(threads);
-  MpmSolver<D> s(scene, sampleBodies<D>(scene));
-  const Real dt = 0.5 * s.cflTimeStep();
-  s.profileStages(true);
-  for (int k = 0; k < steps; ++k) s.step(dt);
-  std::vector<std::vector<StageTime>> times;
-  for (int thread = 0; thread < s.profiledThreads(); ++thread)
-    times.push_back(s.stageTimes(thread));
-  return times;
 }
 
 // Microseconds per step of each stage (median of the repetitions, 1 and 2 threads alternating):
@@ -93,10 +90,12 @@ void profile(const char* label, const Json& j, int steps, int reps) {
     if (samples.count(stage) == 0) stages.push_back(stage);
     samples[stage][column].push_back(seconds / steps * 1e6);
   };
+  std::vector<Vec<D>> positions;
+  StageProfile one, two;
   for (int r = 0; r < reps; ++r) {
-    const auto one = profiledRun<D>(scene, 1, steps);
+    run<D>(scene, 1, steps, positions, &one);
     for (const StageTime& t : one[0]) add(t.stage, alone, t.work_seconds);
-    const auto two = profiledRun<D>(scene, 2, steps);
+    run<D>(scene, 2, steps, positions, &two);
     for (int thread = 0; thread < std::min<int>(2, two.size()); ++thread)
       for (const StageTime& t : two[thread]) {
         add(t.stage, thread == 0 ? work0 : work1, t.work_seconds);
@@ -145,17 +144,17 @@ double arithmeticSeconds(int threads) {
     }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    slowest = std::isfinite(roots + b + c + d) ? seconds
-                                               : 0;  // keeps the chains from being optimised away
+    // Using the chains' results keeps them from being optimised away.
+    slowest = std::isfinite(roots + b + c + d) ? seconds : 0;
   }
   return slowest;
 }
 
 // The most two threads can gain on this machine just now: twice the one-thread time of the same
 // arithmetic over the slower of two threads running it at once. In some spells two busy cores of
-// this shared virtual machine each run up to 10-15% slower than one alone, whatever the program,
-// in others not at all (x1.82-2.0 measured); this separates that from what the solver's two
-// threads cost each other through memory and meetings.
+// this shared virtual machine each run up to about 10% slower than one alone, whatever the
+// program, in others not at all (x1.81-2.02 in session 10); this separates that from what the
+// solver's two threads cost each other through memory and meetings.
 double twoThreadCeiling() {
   const double one = arithmeticSeconds(1);
   return 2 * one / arithmeticSeconds(2);
@@ -235,13 +234,13 @@ int main(int argc, char** argv) {
     std::printf("core-to-core round trip %.0f ns\n", round_trip);
   else
     std::printf("core-to-core round trip not measured: two threads did not run at once\n");
-  const auto run = [&]<int D>(const char* label, const Json& scene) {
+  const auto bench = [&]<int D>(const char* label, const Json& scene) {
     measure<D>(label, scene, steps, reps);
     if (profiled) profile<D>(label, scene, steps, reps);
   };
   if (only == "all" || only == "2d-small")
-    run.operator()<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44));
+    bench.operator()<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44));
   if (only == "all" || only == "2d-large")
-    run.operator()<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6));
-  if (only == "all" || only == "3d") run.operator()<3>("3D MLS quadratic", sceneJson(3, 32, 0.5));
+    bench.operator()<2>("2D MLS quadratic, large", sceneJson(2, 128, 0.6));
+  if (only == "all" || only == "3d") bench.operator()<3>("3D MLS quadratic", sceneJson(3, 32, 0.5));
 }

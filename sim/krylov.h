@@ -1,6 +1,7 @@
 // Conjugate residual for symmetric, possibly indefinite systems A x = b (Saad, "Iterative Methods
-// for Sparse Linear Systems", Algorithm 6.20), as the semi-implicit MPM solve uses it
-// (Stomakhin et al. 2013, section 9). Matrix-free: A is a callable apply(x, y) setting y = A x.
+// for Sparse Linear Systems", Algorithm 6.20), with an optional symmetric positive definite
+// preconditioner, as the semi-implicit MPM solve uses it (Stomakhin et al. 2013, section 9).
+// Matrix-free: A is a callable apply(x, y) setting y = A x.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,19 +17,20 @@ struct KrylovResult {
 
 // Work vectors, sized once and reused so iterations allocate nothing.
 struct ConjugateResidualWork {
-  Eigen::VectorXd r, p, Ar, Ap;
+  Eigen::VectorXd r, z, p, Az, Ap, q;
   void resize(Eigen::Index n) {
-    r.resize(n);
-    p.resize(n);
-    Ar.resize(n);
-    Ap.resize(n);
+    for (Eigen::VectorXd* v : {&r, &z, &p, &Az, &Ap, &q}) v->resize(n);
   }
 };
 
 // Solves A x = b starting from x; stops when ||r|| <= tolerance ||b|| or after max_iterations.
-template <class Apply>
-KrylovResult conjugateResidual(Apply&& apply, const Eigen::VectorXd& b, Eigen::VectorXd& x,
-                               double tolerance, int max_iterations, ConjugateResidualWork& w) {
+// precondition(r, z) sets z = P^-1 r for a symmetric positive definite P that approximates A:
+// this is conjugate residual on P^-1 A, self-adjoint in the P inner product, and with P = I it is
+// plain conjugate residual. The residual tested is b - A x itself, whatever P.
+template <class Apply, class Precondition>
+KrylovResult conjugateResidual(Apply&& apply, Precondition&& precondition, const Eigen::VectorXd& b,
+                               Eigen::VectorXd& x, double tolerance, int max_iterations,
+                               ConjugateResidualWork& w) {
   KrylovResult result;
   const double b_norm = b.norm();
   if (b_norm == 0) {
@@ -37,31 +39,43 @@ KrylovResult conjugateResidual(Apply&& apply, const Eigen::VectorXd& b, Eigen::V
     return result;
   }
   w.resize(b.size());
-  apply(x, w.Ar);
-  w.r = b - w.Ar;
-  w.p = w.r;
-  apply(w.r, w.Ar);
-  w.Ap = w.Ar;
-  double rAr = w.r.dot(w.Ar);
+  apply(x, w.Az);
+  w.r = b - w.Az;
+  precondition(w.r, w.z);
+  w.p = w.z;
+  apply(w.z, w.Az);
+  w.Ap = w.Az;
+  double zAz = w.z.dot(w.Az);
   result.residual = w.r.norm() / b_norm;
   while (result.residual > tolerance && result.iterations < max_iterations) {
-    const double ApAp = w.Ap.squaredNorm();
-    if (ApAp == 0 || rAr == 0) break;  // breakdown: report as not converged
-    const double alpha = rAr / ApAp;
+    precondition(w.Ap, w.q);
+    const double ApQ = w.Ap.dot(w.q);
+    if (ApQ == 0 || zAz == 0) break;  // breakdown: report as not converged
+    const double alpha = zAz / ApQ;
     x += alpha * w.p;
     w.r -= alpha * w.Ap;
+    w.z -= alpha * w.q;
     ++result.iterations;
     result.residual = w.r.norm() / b_norm;
     if (result.residual <= tolerance) break;
-    apply(w.r, w.Ar);
-    const double rAr_new = w.r.dot(w.Ar);
-    const double beta = rAr_new / rAr;
-    rAr = rAr_new;
-    w.p = w.r + beta * w.p;
-    w.Ap = w.Ar + beta * w.Ap;
+    apply(w.z, w.Az);
+    const double zAz_new = w.z.dot(w.Az);
+    const double beta = zAz_new / zAz;
+    zAz = zAz_new;
+    w.p = w.z + beta * w.p;
+    w.Ap = w.Az + beta * w.Ap;
   }
   result.converged = result.residual <= tolerance && std::isfinite(result.residual);
   return result;
+}
+
+// Plain conjugate residual (no preconditioner).
+template <class Apply>
+KrylovResult conjugateResidual(Apply&& apply, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                               double tolerance, int max_iterations, ConjugateResidualWork& w) {
+  return conjugateResidual(
+      apply, [](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = r; }, b, x, tolerance,
+      max_iterations, w);
 }
 
 }  // namespace snowsim

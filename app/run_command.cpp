@@ -112,6 +112,18 @@ void run(const RunOptions& options) {
                             {"particles", simulation->particleCount()},
                             {"frames", written},
                             {"fps", scene.fps}};
+  if (const SolveTally solves = simulation->implicitSolves(); solves.solves > 0) {
+    summary["implicit_solves"] = {{"solves", solves.solves},
+                                  {"mean_iterations", double(solves.iterations) / solves.solves},
+                                  {"most_iterations", solves.most_iterations},
+                                  {"unconverged", solves.unconverged}};
+    if (solves.unconverged > 0)
+      std::fprintf(stderr,
+                   "snowsim: warning: %s: %ld of %ld semi-implicit solves stopped at "
+                   "mpm.max_iterations (%d) short of mpm.tolerance (%g); run.json counts them\n",
+                   scene.file.c_str(), solves.unconverged, solves.solves,
+                   scene.mpm.implicit_max_iterations, scene.mpm.implicit_tolerance);
+  }
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -142,7 +154,8 @@ void addRunCommand(CLI::App& app) {
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
-      "and run.json (steps, simulated time, wall time, particle count, dimension).\n"
+      "and run.json (steps, simulated time, wall time, particle count, dimension; for a "
+      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
   cmd->callback([options] { run(*options); });

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 
 namespace snowsim {
@@ -13,6 +14,19 @@ struct KrylovResult {
   int iterations = 0;
   double residual = 0;  // ||b - A x|| / ||b|| at exit
   bool converged = false;
+};
+
+// The solves of a run, for its summary: a solve that stops at its iteration limit leaves its
+// residual above the tolerance and the run goes on with that answer, so the count is reported.
+struct SolveTally {
+  long solves = 0, iterations = 0, unconverged = 0;
+  int most_iterations = 0;
+  void add(const KrylovResult& r) {
+    ++solves;
+    iterations += r.iterations;
+    unconverged += r.converged ? 0 : 1;
+    most_iterations = std::max(most_iterations, r.iterations);
+  }
 };
 
 // Work vectors, sized once and reused so iterations allocate nothing.

@@ -524,6 +524,7 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
   implicit_.prepare(grid_, fields_, particles_, F_E_, lame_, params_, dt);
   last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
                                 params_.implicit_tolerance, params_.implicit_max_iterations);
+  solves_.add(last_solve_);
   if (!std::isfinite(last_solve_.residual)) {
     std::ostringstream s;
     s << file_ << ": semi-implicit MPM solve failed at step " << steps_ << " (t = " << time_

@@ -51,6 +51,7 @@ class MpmSolver final : public Solver<D> {
   Real advectionTimeStep() const;
   // The Krylov solve of the last semi-implicit step.
   const KrylovResult& lastImplicitSolve() const { return last_solve_; }
+  SolveTally implicitSolves() const override { return solves_; }
   // Where the steps' time goes, stage by stage and thread by thread (sim/team.h): on from the
   // next step until turned off. The semi-implicit solve's own OpenMP regions are not in it.
   // bench/mpm_bench prints it.
@@ -244,6 +245,7 @@ class MpmSolver final : public Solver<D> {
   Real limit_when_exceeded_ = std::numeric_limits<Real>::infinity();
   int step_when_exceeded_ = -1;
   KrylovResult last_solve_;
+  SolveTally solves_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
   // Threads only pay off from a few thousand particles: below, waking the threads and meeting
   // between the stages costs more than they share (README, "Speed", for the measured ratios).

@@ -61,6 +61,7 @@ class SimulationOf final : public Simulation {
   double time() const override { return time_; }
   long steps() const override { return steps_; }
   int particleCount() const override { return solver_->particles().size(); }
+  SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
 
  private:
   // A blown-up state is stopped where it happens, never written out.

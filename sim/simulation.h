@@ -4,6 +4,7 @@
 
 #include <memory>
 
+#include "sim/krylov.h"
 #include "sim/scene.h"
 #include "sim/snapshot.h"
 
@@ -21,6 +22,7 @@ class Simulation {
   virtual double time() const = 0;
   virtual long steps() const = 0;
   virtual int particleCount() const = 0;
+  virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
 };
 
 // Builds the particles and the solver the scene asks for, in the scene's dimension.

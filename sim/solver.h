@@ -3,6 +3,7 @@
 
 #include <limits>
 
+#include "sim/krylov.h"
 #include "sim/particles.h"
 #include "sim/snapshot.h"
 
@@ -20,6 +21,9 @@ class Solver {
   virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
 
   virtual const Particles<D>& particles() const = 0;
+
+  // The linear solves of its semi-implicit steps so far (none for an explicit solver).
+  virtual SolveTally implicitSolves() const { return {}; }
 
   // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
   virtual void describe(Snapshot& snapshot) const = 0;

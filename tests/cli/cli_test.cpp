@@ -59,7 +59,31 @@ TEST(Cli, RunWritesPlyFramesAndASummary) {
   EXPECT_EQ(summary["dimension"], 2);
   EXPECT_DOUBLE_EQ(summary["simulated_time"].get<double>(), 0.1);
   EXPECT_TRUE(summary.contains("wall_time"));
+  EXPECT_FALSE(summary.contains("implicit_solves")) << "no semi-implicit solves to count";
   EXPECT_EQ(r.output, "") << "quiet when not on a terminal";
+}
+
+// A semi-implicit run counts its linear solves in run.json, and says so when some stopped at
+// the iteration limit short of the tolerance.
+TEST(Cli, RunCountsTheSemiImplicitSolves) {
+  const fs::path out = freshDir("semi");
+  const std::string run = "run " + scene("study_smash_3d") + " -o " + out.string() +
+                          " --no-png --no-mp4 --no-ply --set time.duration=0.02" +
+                          " --set mpm.integrator=semi_implicit";
+  Result r = runSnowsim(run);
+  ASSERT_EQ(r.code, 0) << r.output;
+  auto solves = nlohmann::json::parse(std::ifstream(out / "run.json"))["implicit_solves"];
+  EXPECT_GT(solves["solves"].get<int>(), 0);
+  EXPECT_EQ(solves["unconverged"], 0);
+  EXPECT_EQ(r.output, "");
+
+  r = runSnowsim(run + " --set mpm.max_iterations=2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  solves = nlohmann::json::parse(std::ifstream(out / "run.json"))["implicit_solves"];
+  EXPECT_GT(solves["unconverged"].get<int>(), 0);
+  EXPECT_EQ(solves["most_iterations"], 2);
+  EXPECT_NE(r.output.find("study_smash_3d.json"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("mpm.max_iterations (2)"), std::string::npos) << r.output;
 }
 
 // Each bad input: exit code 2, a message with the expected words, nothing written.

@@ -286,6 +286,36 @@ TEST(SemiImplicit, SolveConvergesOnTheSmash3D) {
   }
 }
 
+// What a run reports of its solves: each step's solve counted, and those cut off by a low
+// mpm.max_iterations counted as unconverged; an explicit solver has none.
+TEST(SemiImplicit, TallyCountsEverySolveAndTheUnconverged) {
+  const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/study_smash_3d.json";
+  const Scene scene = loadScene(
+      path, {"mpm.integrator=semi_implicit", "mpm.adaptive_dt=false", "mpm.max_iterations=20"});
+  MpmSolver<3> solver(scene, sampleBodies<3>(scene));
+  long iterations = 0, unconverged = 0;
+  int most = 0;
+  for (int step = 0; step < 25; ++step) {
+    solver.step(2e-3);
+    const KrylovResult& solve = solver.lastImplicitSolve();
+    iterations += solve.iterations;
+    unconverged += solve.converged ? 0 : 1;
+    most = std::max(most, solve.iterations);
+  }
+  const SolveTally tally = solver.implicitSolves();
+  EXPECT_EQ(tally.solves, 25);
+  EXPECT_EQ(tally.iterations, iterations);
+  EXPECT_EQ(tally.unconverged, unconverged);
+  EXPECT_GT(tally.unconverged, 0);
+  EXPECT_EQ(tally.most_iterations, most);
+  EXPECT_EQ(most, 20);
+
+  const Scene explicit_scene = loadScene(path, {});
+  MpmSolver<3> explicit_solver(explicit_scene, sampleBodies<3>(explicit_scene));
+  explicit_solver.step(1e-4);
+  EXPECT_EQ(explicit_solver.implicitSolves().solves, 0);
+}
+
 }  // namespace
 
 // The contact constraints the semi-implicit solve holds: which velocity components a collision

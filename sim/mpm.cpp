@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -253,22 +254,41 @@ void MpmSolver<D>::forEachParticleArray(F&& f) {
 }
 
 template <int D>
+template <class F>
+void MpmSolver<D>::forParticleArraysOfRound(int round, F&& f) {
+  std::array<int, SpareArrays::types> met{};  // per type, the arrays met so far
+  forEachParticleArray([&](auto& array) {
+    if (met[SpareArrays::type(array)]++ == round) f(array);
+  });
+}
+
+template <int D>
 void MpmSolver<D>::storeInSortedOrder() {
   // Each array is gathered in the sorted order into the spare array of its type, each part
   // writing the places its particle pass will read, and the two swap; then order_ is the
   // identity. A part's particles end up in its own thread's cache, where an in-place permutation
-  // on one thread left them all in that thread's.
+  // on one thread left them all in that thread's. Round r takes the r-th array of each type at
+  // once, so the threads meet twice a round rather than twice an array (8 meetings, not 27).
   const auto places = [&](int part, auto&& f) {  // the places of the part's particle pass
     const auto [first, last] = passChunks(part);
     for (int o = chunkStart(first); o < chunkStart(last); ++o) f(o);
   };
-  forEachParticleArray([&](auto& array) {
-    auto& spare = spare_.of(array);
-    team_.forEachPart("sort: gather",
-                      [&](int part) { places(part, [&](int o) { spare[o] = array[order_[o]]; }); });
-    team_.serially("sort: swap", [&] { array.swap(spare); });
-  });
-  team_.forEachPart("sort: order", [&](int part) { places(part, [&](int o) { order_[o] = o; }); });
+  std::array<int, SpareArrays::types> arrays{};
+  forEachParticleArray([&](auto& array) { ++arrays[SpareArrays::type(array)]; });
+  const int rounds = *std::max_element(arrays.begin(), arrays.end());
+  for (int round = 0; round < rounds; ++round) {
+    team_.forEachPart("sort: gather", [&](int part) {
+      forParticleArraysOfRound(round, [&](auto& array) {
+        auto& spare = spare_.of(array);
+        places(part, [&](int o) { spare[o] = array[order_[o]]; });
+      });
+      // A part reads order_ at its own places only: it may reset them once it has gathered.
+      if (round == rounds - 1) places(part, [&](int o) { order_[o] = o; });
+    });
+    team_.serially("sort: swap", [&] {
+      forParticleArraysOfRound(round, [&](auto& array) { array.swap(spare_.of(array)); });
+    });
+  }
 }
 
 template <int D>

@@ -106,7 +106,9 @@ class MpmSolver final : public Solver<D> {
   void storeInSortedOrder();
   template <class F>
   void forEachParticleArray(F&& f);  // f(array) for each per-particle array
-  void splitRows();                  // part_rows_ from the sorted particles
+  template <class F>
+  void forParticleArraysOfRound(int round, F&& f);  // f(array) for the round-th of each type
+  void splitRows();                                 // part_rows_ from the sorted particles
   int rowColour(int row) const;
   // The nodes within updated_ that the particles of row `row` can reach: disjoint for the rows of
   // one colour, so each row clears its own in its partial grid before scattering to them.
@@ -201,6 +203,13 @@ class MpmSolver final : public Solver<D> {
     std::vector<Real>& of(const std::vector<Real>&) { return real; }
     std::vector<int>& of(const std::vector<int>&) { return integer; }
     std::vector<Lame>& of(const std::vector<Lame>&) { return lame; }
+    // Which of the types an array is, 0 .. types - 1.
+    static constexpr int types = 5;
+    static int type(const std::vector<Vec<D>>&) { return 0; }
+    static int type(const std::vector<Mat<D>>&) { return 1; }
+    static int type(const std::vector<Real>&) { return 2; }
+    static int type(const std::vector<int>&) { return 3; }
+    static int type(const std::vector<Lame>&) { return 4; }
   } spare_;
   // The work is cut into parts, one per thread. In the scatter part t has the rows
   // part_rows_[t] .. part_rows_[t + 1]; the particle pass cuts the sorted order at the same

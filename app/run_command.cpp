@@ -119,10 +119,10 @@ void run(const RunOptions& options) {
                                   {"unconverged", solves.unconverged}};
     if (solves.unconverged > 0)
       std::fprintf(stderr,
-                   "snowsim: warning: %s: %ld of %ld semi-implicit solves stopped at "
-                   "mpm.max_iterations (%d) short of mpm.tolerance (%g); run.json counts them\n",
+                   "snowsim: warning: %s: %ld of %ld semi-implicit solves ended short of "
+                   "mpm.tolerance (%g) within mpm.max_iterations (%d); run.json counts them\n",
                    scene.file.c_str(), solves.unconverged, solves.solves,
-                   scene.mpm.implicit_max_iterations, scene.mpm.implicit_tolerance);
+                   scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");

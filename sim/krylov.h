@@ -5,29 +5,11 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <algorithm>
 #include <cmath>
 
+#include "sim/krylov_result.h"
+
 namespace snowsim {
-
-struct KrylovResult {
-  int iterations = 0;
-  double residual = 0;  // ||b - A x|| / ||b|| at exit
-  bool converged = false;
-};
-
-// The solves of a run, for its summary: a solve that stops at its iteration limit leaves its
-// residual above the tolerance and the run goes on with that answer, so the count is reported.
-struct SolveTally {
-  long solves = 0, iterations = 0, unconverged = 0;
-  int most_iterations = 0;
-  void add(const KrylovResult& r) {
-    ++solves;
-    iterations += r.iterations;
-    unconverged += r.converged ? 0 : 1;
-    most_iterations = std::max(most_iterations, r.iterations);
-  }
-};
 
 // Work vectors, sized once and reused so iterations allocate nothing.
 struct ConjugateResidualWork {
@@ -40,7 +22,8 @@ struct ConjugateResidualWork {
 // Solves A x = b starting from x; stops when ||r|| <= tolerance ||b|| or after max_iterations.
 // precondition(r, z) sets z = P^-1 r for a symmetric positive definite P that approximates A:
 // this is conjugate residual on P^-1 A, self-adjoint in the P inner product, and with P = I it is
-// plain conjugate residual. The residual tested is b - A x itself, whatever P.
+// plain conjugate residual. The residual tested is the unpreconditioned b - A x (carried by
+// recurrence), not P^-1 (b - A x).
 template <class Apply, class Precondition>
 KrylovResult conjugateResidual(Apply&& apply, Precondition&& precondition, const Eigen::VectorXd& b,
                                Eigen::VectorXd& x, double tolerance, int max_iterations,

@@ -4,7 +4,7 @@
 
 #include <memory>
 
-#include "sim/krylov.h"
+#include "sim/krylov_result.h"
 #include "sim/scene.h"
 #include "sim/snapshot.h"
 

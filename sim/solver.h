@@ -3,7 +3,7 @@
 
 #include <limits>
 
-#include "sim/krylov.h"
+#include "sim/krylov_result.h"
 #include "sim/particles.h"
 #include "sim/snapshot.h"
 

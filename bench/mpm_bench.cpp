@@ -58,10 +58,10 @@ double median(std::vector<double> values) {
 using StageProfile = std::vector<std::vector<StageTime>>;
 
 // Particle-steps per second of one run of the scene on the given thread count; its positions,
-// and, if asked for, its stage profile.
+// and, if asked for, how many times its particles were binned and its stage profile.
 template <int D>
 double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions,
-           StageProfile* profile = nullptr) {
+           StageProfile* profile = nullptr, long* binnings = nullptr) {
   omp_set_num_threads(threads);
   MpmSolver<D> s(scene, sampleBodies<D>(scene));
   const Real dt = 0.5 * s.cflTimeStep();
@@ -70,6 +70,7 @@ double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& posi
   for (int k = 0; k < steps; ++k) s.step(dt);
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   positions = s.particles().x;
+  if (binnings != nullptr) *binnings = s.binnings();
   if (profile != nullptr) {
     profile->clear();
     for (int thread = 0; thread < s.profiledThreads(); ++thread)
@@ -159,9 +160,10 @@ void measure(const char* label, const Json& j, int steps, int reps) {
   const Scene scene = parseScene(j, "bench");
   std::vector<Vec<D>> one_thread, two_threads;
   std::vector<double> rate1, rate2, ratio, ceiling;
+  long binnings = 0;
   for (int r = 0; r < reps; ++r) {
     const double side_by_side = sideBySideRate<D>(scene, steps);
-    rate1.push_back(run<D>(scene, 1, steps, one_thread));
+    rate1.push_back(run<D>(scene, 1, steps, one_thread, nullptr, &binnings));
     ceiling.push_back(side_by_side / rate1.back());
     rate2.push_back(run<D>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
@@ -172,9 +174,10 @@ void measure(const char* label, const Json& j, int steps, int reps) {
                        sizeof(Mat<D>) * (D == 3 ? 5 : 4) + sizeof(Lame) * 2;
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f; "
-      "two solvers side by side x%.2f), bit-identical: %s, %zu bytes/particle\n",
+      "two solvers side by side x%.2f), bit-identical: %s, %zu bytes/particle, binned %ld "
+      "times in %d steps\n",
       label, one_thread.size(), median(rate1) / 1e6, median(rate2) / 1e6, median(ratio),
-      median(ceiling), one_thread == two_threads ? "yes" : "NO", bytes);
+      median(ceiling), one_thread == two_threads ? "yes" : "NO", bytes, binnings, steps);
 }
 
 // Nanoseconds for two threads to pass one cache line there and back: what each line costs that

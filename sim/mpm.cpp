@@ -95,14 +95,25 @@ void MpmSolver<D>::step(Real dt) {
     step_when_exceeded_ = steps_;
   }
   prepareParts();
+  // The rows hold until a particle leaves them (measure()); their split follows the shares.
+  const bool bin = must_bin_ || drift_cells == 0;
+  if (!bin) {
+    updated_ = active_;  // the last grid stage zeroed what the binning before left outside it
+    splitRows();
+  }
+  binned_since_stored_ = binned_since_stored_ || bin;
+  const bool store = binned_since_stored_ && steps_ - stored_step_ >= sorted_storage_interval;
+  if (store) {
+    binned_since_stored_ = false;
+    stored_step_ = steps_;
+  }
   // The explicit stages are one task of the team's threads (sim/team.h); the semi-implicit solve
   // opens OpenMP regions of its own and may throw, so its stages each meet on their own (nothing
   // in a shared task throws: a worker thread has no one to throw to).
   team_.together(!semi_implicit, [&] {
-    binParticles();
-    if (steps_ % sorted_storage_interval == 0)  // each part together in memory
-      storeInSortedOrder();
-    rasterise(dt);  // 1, 3: mass, momentum and forces to the grid
+    if (bin) binParticles();
+    if (store) storeInSortedOrder();  // each part together in memory
+    rasterise(dt);                    // 1, 3: mass, momentum and forces to the grid
     if (semi_implicit) {
       updateGridNodes(dt, false);   // 4: explicit update
       solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve holding the contacts
@@ -203,6 +214,8 @@ void MpmSolver<D>::binParticles() {
       row_start_[rows] = placed;
       splitRows();
       findActiveNodes();
+      must_bin_ = false;
+      ++binnings_;
     }
   });
 }
@@ -228,12 +241,17 @@ void MpmSolver<D>::findActiveNodes() {
     first_block = first_block.cwiseMin(range_first_block_[r]);
     last_block = last_block.cwiseMax(range_last_block_[r]);
   }
+  binned_first_block_ = first_block;
+  binned_last_block_ = last_block;
   const NodeBox<D> previous = active_;
-  // A particle of cell c reaches nodes c-1 .. c+2 with either kernel; two more on each side hold
-  // particles just outside the domain, which the edge blocks keep.
+  // A particle of cell c reaches nodes c-1 .. c+2 with either kernel, and may move drift_cells
+  // before the next binning; two more on each side hold particles just outside the domain, which
+  // the edge blocks keep.
+  constexpr int margin = 2 + drift_cells;
   for (int a = 0; a < D; ++a) {
-    active_.lo[a] = std::max(0, first_block[a] * block_cells - 2 + grid_.ghost);
-    active_.hi[a] = std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 3 + grid_.ghost);
+    active_.lo[a] = std::max(0, first_block[a] * block_cells - margin + grid_.ghost);
+    active_.hi[a] =
+        std::min(grid_.nodes[a], (last_block[a] + 1) * block_cells + 1 + margin + grid_.ghost);
   }
   // The partial grids hold mass in this binning's active_, the grid still holds the last grid
   // stage's, in the previous binning's: the grid stage updates both.
@@ -313,8 +331,8 @@ void MpmSolver<D>::splitRows() {
 template <int D>
 int MpmSolver<D>::rowColour(int row) const {
   int colour = 0;
-  for (int a = 1; a < D; ++a) {
-    colour |= (row % blocks_[a] % 2) << (a - 1);
+  for (int a = 1, weight = 1; a < D; ++a, weight *= colour_stride) {
+    colour += row % blocks_[a] % colour_stride * weight;
     row /= blocks_[a];
   }
   return colour;
@@ -361,18 +379,57 @@ void MpmSolver<D>::scatter(Real dt) {
 template <int D>
 NodeBox<D> MpmSolver<D>::reachOfRow(int row) const {
   NodeBox<D> box = updated_;
+  // Cells block * b .. block * b + b - 1, and drift_cells on each side, reach nodes from
+  // block * b - 1 - drift_cells; the edge blocks also hold the particles binned into them from
+  // beyond the domain.
+  const auto lowestReached = [&](int block) {
+    return block == 0 ? 0 : block * block_cells - 1 - drift_cells + grid_.ghost;
+  };
   for (int a = 1; a < D; ++a) {
     const int block = row % blocks_[a];
     row /= blocks_[a];
-    // Cells block * b .. block * b + b - 1 reach nodes block * b - 1 .. block * b + b + 1; the
-    // edge blocks also hold the particles binned into them from beyond the domain.
-    const int lo = block == 0 ? 0 : block * block_cells - 1 + grid_.ghost;
-    const int hi =
-        block == blocks_[a] - 1 ? grid_.nodes[a] : (block + 1) * block_cells + 2 + grid_.ghost;
-    box.lo[a] = std::max(box.lo[a], lo);
-    box.hi[a] = std::min(box.hi[a], hi);
+    const int next = block + colour_stride;  // the next row of this colour along a
+    box.lo[a] = std::max(box.lo[a], lowestReached(block));
+    if (next < blocks_[a]) box.hi[a] = std::min(box.hi[a], lowestReached(next));
   }
   return box;
+}
+
+template <int D>
+typename MpmSolver<D>::RowCells MpmSolver<D>::rowCellsAt(int o) const {
+  const int rows = static_cast<int>(row_start_.size()) - 1;
+  // The last row whose first place is o or before (o = the particle count: an empty part's end).
+  int row = std::min(rows - 1,
+                     static_cast<int>(std::upper_bound(row_start_.begin(), row_start_.end(), o) -
+                                      row_start_.begin()) -
+                         1);
+  RowCells cells;
+  cells.end = rowFirstParticle(row + 1);
+  cells.inv_h = 1 / grid_.h;
+  constexpr Real unbounded = std::numeric_limits<Real>::infinity();
+  const auto allow = [&](int a, int first_block, int last_block) {
+    cells.lo[a] = first_block == 0 ? -unbounded : first_block * block_cells - drift_cells;
+    cells.hi[a] =
+        last_block == blocks_[a] - 1 ? unbounded : (last_block + 1) * block_cells + drift_cells;
+  };
+  allow(0, binned_first_block_[0], binned_last_block_[0]);  // a row spans the binning's box
+  for (int a = 1; a < D; ++a) {
+    allow(a, row % blocks_[a], row % blocks_[a]);
+    row /= blocks_[a];
+  }
+  return cells;
+}
+
+template <int D>
+bool MpmSolver<D>::withinRowCells(int o, const Vec<D>& x, RowCells& row) const {
+  if (o >= row.end) row = rowCellsAt(o);
+  // The cell as binParticles computes it, floor(x / h), within [lo, hi): no branch per axis.
+  bool within = true;
+  for (int a = 0; a < D; ++a) {
+    const Real cell = x[a] * row.inv_h;
+    within &= (cell >= row.lo[a]) & (cell < row.hi[a]);
+  }
+  return within;
 }
 
 template <int D>
@@ -588,12 +645,14 @@ void MpmSolver<D>::passOverParticles(std::string_view stage, F&& update) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
     const auto [first, last] = passChunks(part);
+    RowCells row = rowCellsAt(chunkStart(first));
     for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
       for (int o = chunkStart(chunk); o < chunkStart(chunk + 1); ++o) {
         const int p = order_[o];
         update(p);
         measure(p, m);
+        if constexpr (drift_cells > 0) m.in_rows &= withinRowCells(o, particles_.x[p], row);
         energy += particleEnergy(p);
       }
       chunk_energy_[chunk] = energy;
@@ -622,6 +681,7 @@ void MpmSolver<D>::collectMeasures() {
     fastest_speed_ = std::max(fastest_speed_, part_measures_[part].speed);
     fastest_signal_ = std::max(fastest_signal_, part_measures_[part].signal);
     finite_ = finite_ && part_measures_[part].finite;
+    must_bin_ = must_bin_ || !part_measures_[part].in_rows;
   }
   Real energy = 0;
   for (const Real chunk : chunk_energy_) energy += chunk;

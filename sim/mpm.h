@@ -58,6 +58,9 @@ class MpmSolver final : public Solver<D> {
   void profileStages(bool on) { team_.profileStages(on); }
   int profiledThreads() const { return team_.threads(); }
   const std::vector<StageTime>& stageTimes(int thread) const { return team_.stageTimes(thread); }
+  // How many times the particles were binned into rows, construction included: once, then again
+  // whenever one had moved drift_cells beyond its row's cells.
+  long binnings() const { return binnings_; }
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
   // them.
@@ -110,10 +113,23 @@ class MpmSolver final : public Solver<D> {
   void forParticleArraysOfRound(int round, F&& f);  // f(array) for the round-th of each type
   void splitRows();                                 // part_rows_ from the sorted particles
   int rowColour(int row) const;
-  // The nodes within updated_ that the particles of row `row` can reach: disjoint for the rows of
-  // one colour, so each row clears its own in its partial grid before scattering to them.
+  // The nodes within updated_ that the particles of row `row` can reach, up to where the next row
+  // of its colour's reach begins: disjoint for the rows of one colour, and together all of
+  // updated_, so each row clears its own in its partial grid before scattering to them.
   NodeBox<D> reachOfRow(int row) const;
   void clearReachOfRow(int row);
+  // Where the particles of the row at sorted place o may be, in cells (x / h), for the nodes they
+  // reach to stay the row's: [lo, hi) on each axis, unbounded at the domain's edges; and where
+  // the row ends in the sorted order.
+  struct RowCells {
+    int end;
+    Vec<D> lo, hi;
+    Real inv_h;
+  };
+  RowCells rowCellsAt(int o) const;
+  // Whether the particle at sorted place o, now at x, is within its row's cells; `row` follows a
+  // pass in sorted order from row to row.
+  bool withinRowCells(int o, const Vec<D>& x, RowCells& row) const;
   int rowFirstParticle(int row) const { return row_start_[row]; }
   // f(first, length, block): the blocks of row `row` within the box [lo, hi] of block coordinates,
   // a run of `length` along x from flat block index `first`, at coordinates `block`; nothing if
@@ -131,6 +147,7 @@ class MpmSolver final : public Solver<D> {
   struct PartMeasure {  // the fastest particles of one part
     Real speed = 0, signal = 0;
     bool finite = true;
+    bool in_rows = true;  // every particle within its row's cells (withinRowCells)
   };
   // update(p) for each particle, part by part, each part measuring what it leaves.
   template <class F>
@@ -161,14 +178,23 @@ class MpmSolver final : public Solver<D> {
   std::vector<Real> body_density_;  // rest density of each body of the scene
   // Deterministic parallel P2G: particles binned into blocks of block_cells^D cells, sorted by
   // block, in stored order within a block. A row of blocks along x is the unit of work. Each row
-  // scatters into the partial grid of its colour, the parity of its y (and z) block index: a
-  // particle of cell c reaches nodes c-1 .. c+2, so rows of one colour, a row of at least 3 cells
-  // apart, write no common node. A node of a partial grid sums the particles of one row, in sorted
-  // order, and the grid sums the partial grids in colour order: the same sums on any thread
-  // count, and the rows need no order among them. Rows 3 cells tall in 2D give the threads more
-  // rows to share; 3D has rows enough, and its larger blocks sort faster.
+  // scatters into the partial grid of its colour, its y (and z) block index modulo colour_stride:
+  // a particle of cell c reaches nodes c-1 .. c+2, so rows of one colour write no common node as
+  // long as their particles stay within drift_cells of their rows' cells. A node of a partial grid
+  // sums the particles of one row, in sorted order, and the grid sums the partial grids in colour
+  // order: the same sums on any thread count, and the rows need no order among them.
+  // 2D: rows 3 cells tall, three colours. 3D: blocks of 4^3 cells, four colours (two along y,
+  // two along z); it has rows enough, and its larger blocks sort faster.
   static constexpr int block_cells = D == 2 ? 3 : 4;
-  static constexpr int colours = 1 << (D - 1);
+  static constexpr int colour_stride = D == 2 ? 3 : 2;  // per axis
+  static constexpr int colours = D == 2 ? colour_stride : colour_stride * colour_stride;
+  // Rows colour_stride blocks apart reach nodes block_cells * (colour_stride - 1) - 2 apart: a
+  // particle may move this many cells beyond its row's on each side and still write only its
+  // row's nodes. 2D: one cell, so the particles are binned anew only when one has moved farther
+  // (withinRowCells), 4 times in the small bench's 200 steps. 3D: none, so they are binned every
+  // step; three colours a side would be nine partial grids to sum, and blocks of 5^3 cells with
+  // two colours cost more on two threads than the binning saved (README, "Speed").
+  static constexpr int drift_cells = (block_cells * (colour_stride - 1) - 3) / 2;
   // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
   template <class T>
   using ZeroPageVector = std::vector<T, ZeroPageAllocator<T>>;
@@ -182,12 +208,13 @@ class MpmSolver final : public Solver<D> {
   std::vector<int> row_start_;  // particles of row r: order_[row_start_[r] .. [r + 1])
   std::vector<int> order_;
   std::vector<int> particle_block_;  // per stored particle, binParticles' scratch: stale after it
-  // Every few steps the particles are stored in the sorted order, so that each part's particles
-  // lie together in memory: two threads then rarely write the same cache line, which on this
-  // machine cost up to 25% of the particle pass on two threads (README, "Speed"). In between,
-  // the stored order drifts from the sorted one: every 64 steps, the last steps were 10% slower
-  // than the first. A period in steps, never in threads or time, so the results stay the same
-  // on any thread count.
+  // Once a binning has changed the sorted order, the particles are stored in it, at most every
+  // sorted_storage_interval steps, so that each part's particles lie together in memory: two
+  // threads then rarely write the same cache line, which on this machine cost up to 25% of the
+  // particle pass on two threads (README, "Speed"). In between, the stored order drifts from the
+  // sorted one: storing it every 64 steps, the last steps were 10% slower than the first. Steps
+  // and binnings, never threads or time, decide it, so the results stay the same on any thread
+  // count.
   static constexpr int sorted_storage_interval = 16;
   struct SpareArrays {  // one per type of particle array: storeInSortedOrder's target
     std::vector<Vec<D>> vec;
@@ -227,6 +254,14 @@ class MpmSolver final : public Solver<D> {
   // range_first/last_block_[r] bound the blocks its particles are in.
   std::vector<int> range_count_, range_cursor_;
   std::vector<IVec<D>> range_first_block_, range_last_block_;
+  // The last binning's box of blocks; whether a particle has left its row's cells since (then the
+  // next step bins anew); whether the sorted order changed since the particles were last stored
+  // in it, and at which step they were.
+  IVec<D> binned_first_block_, binned_last_block_;
+  bool must_bin_ = true;
+  long binnings_ = 0;
+  bool binned_since_stored_ = true;
+  long stored_step_ = -sorted_storage_interval;
   // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
   // stages touch only these, so a small snowball in a large domain costs what the snowball does.
   // Nodes outside stay zero: the grid stage sums the partial grids over updated_, active_ and

@@ -170,7 +170,7 @@ void MpmSolver<D>::binParticles() {
       int b = 0, s = 1;
       for (int a = 0; a < D; ++a) {
         // The cell as the kernels compute it (sim/bspline.h), so that a particle never reaches
-        // beyond its row's nodes (reachOfRow).
+        // beyond its row's nodes (withinRowCells).
         const int cell = static_cast<int>(std::floor(particles_.x[p][a] * inv_h));
         const int k = std::min(std::max(cell, 0) / block_cells, blocks_[a] - 1);
         first[a] = std::min(first[a], k);
@@ -370,29 +370,11 @@ void MpmSolver<D>::forUpdatedNodes(F&& f) {
 
 template <int D>
 void MpmSolver<D>::scatter(Real dt) {
-  // Each row clears and fills only the nodes its particles can reach from where they were
-  // binned: binned anew, a particle that moved since cannot write beyond its row's reach.
+  // Binned anew, a particle that moved since cannot write beyond its row's nodes; emptied, the
+  // partial grids drop a scatter that no grid stage has summed.
   binParticles();
+  emptyPartialGrids();
   rasterise(dt);
-}
-
-template <int D>
-NodeBox<D> MpmSolver<D>::reachOfRow(int row) const {
-  NodeBox<D> box = updated_;
-  // Cells block * b .. block * b + b - 1, and drift_cells on each side, reach nodes from
-  // block * b - 1 - drift_cells; the edge blocks also hold the particles binned into them from
-  // beyond the domain.
-  const auto lowestReached = [&](int block) {
-    return block == 0 ? 0 : block * block_cells - 1 - drift_cells + grid_.ghost;
-  };
-  for (int a = 1; a < D; ++a) {
-    const int block = row % blocks_[a];
-    row /= blocks_[a];
-    const int next = block + colour_stride;  // the next row of this colour along a
-    box.lo[a] = std::max(box.lo[a], lowestReached(block));
-    if (next < blocks_[a]) box.hi[a] = std::min(box.hi[a], lowestReached(next));
-  }
-  return box;
 }
 
 template <int D>
@@ -433,16 +415,17 @@ bool MpmSolver<D>::withinRowCells(int o, const Vec<D>& x, RowCells& row) const {
 }
 
 template <int D>
-void MpmSolver<D>::clearReachOfRow(int row) {
-  PartialGrid& g = partial_[rowColour(row)];
-  const NodeBox<D> box = reachOfRow(row);
+void MpmSolver<D>::emptyPartialGrids() {
+  const NodeBox<D>& box = updated_;
   const int width = box.hi[0] - box.lo[0];
-  if (width <= 0 || box.count() == 0) return;
+  if (width <= 0) return;
   for (int line = 0, lines = box.count() / width; line < lines; ++line) {
     const int first = box.flatIndex(grid_, line * width);
-    std::fill_n(g.mass.begin() + first, width, Real(0));
-    std::fill_n(g.momentum.begin() + first, width, Vec<D>::Zero());
-    if (!g.force.empty()) std::fill_n(g.force.begin() + first, width, Vec<D>::Zero());
+    for (PartialGrid& g : partial_) {
+      std::fill_n(g.mass.begin() + first, width, Real(0));
+      std::fill_n(g.momentum.begin() + first, width, Vec<D>::Zero());
+      if (!g.force.empty()) std::fill_n(g.force.begin() + first, width, Vec<D>::Zero());
+    }
   }
 }
 
@@ -456,10 +439,16 @@ void MpmSolver<D>::sumPartialGrids(int k) {
   const bool forces = !partial_[0].force.empty();  // MLS's force field stays zero
   Real mass = 0;
   Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
-  for (const PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
+  for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
+    if (g.mass[k] == 0) continue;    // no particle's stencil reached it (w = 0 adds zeros)
     mass += g.mass[k];
     momentum += g.momentum[k];
     if (forces) force += g.force[k];
+    // Emptied for the next scatter. Only the nodes a row wrote are written here, so the lines
+    // nobody scattered to cross between the threads' caches no more than once.
+    g.mass[k] = 0;
+    g.momentum[k].setZero();
+    if (forces) g.force[k].setZero();
   }
   fields_.mass[k] = mass;
   fields_.velocity[k] = momentum;
@@ -483,7 +472,6 @@ void MpmSolver<D>::rasteriseWith(Real dt) {
   const bool mls = params_.transfer == MpmTransfer::Mls;
   team_.forEachPart("rasterise", [&](int part) {
     for (int row = part_rows_[part]; row < part_rows_[part + 1]; ++row) {
-      clearReachOfRow(row);  // what the last scatter left there
       PartialGrid& g = partial_[rowColour(row)];
       for (int o = rowFirstParticle(row); o < rowFirstParticle(row + 1); ++o) {
         const int p = order_[o];

@@ -113,11 +113,9 @@ class MpmSolver final : public Solver<D> {
   void forParticleArraysOfRound(int round, F&& f);  // f(array) for the round-th of each type
   void splitRows();                                 // part_rows_ from the sorted particles
   int rowColour(int row) const;
-  // The nodes within updated_ that the particles of row `row` can reach, up to where the next row
-  // of its colour's reach begins: disjoint for the rows of one colour, and together all of
-  // updated_, so each row clears its own in its partial grid before scattering to them.
-  NodeBox<D> reachOfRow(int row) const;
-  void clearReachOfRow(int row);
+  // Zero over updated_. The grid stage empties them as it sums them, so only a scatter that no
+  // grid stage followed needs this.
+  void emptyPartialGrids();
   // Where the particles of the row at sorted place o may be, in cells (x / h), for the nodes they
   // reach to stay the row's: [lo, hi) on each axis, unbounded at the domain's edges; and where
   // the row ends in the sorted order.

@@ -81,7 +81,8 @@ double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& posi
 
 // Microseconds per step of each stage (median of the repetitions, 1 and 2 threads alternating):
 // on one thread, and on each of two threads the work of its parts and the wait for the other.
-// The sort's stages run every 16th step, so their figures are that cost spread over the steps.
+// The binning's stages run every step in 3D but rarely in 2D (the bench prints how often), the
+// sort's at most every 16th step: their figures are what they cost spread over the steps.
 template <int D>
 void profile(const char* label, const Json& j, int steps, int reps) {
   const Scene scene = parseScene(j, "bench");

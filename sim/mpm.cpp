@@ -95,12 +95,11 @@ void MpmSolver<D>::step(Real dt) {
     step_when_exceeded_ = steps_;
   }
   prepareParts();
-  // The rows hold until a particle leaves them (measure()); their split follows the shares.
+  // The rows hold until a particle has moved more than drift_cells beyond its row's cells
+  // (withinRowCells); their split between the parts follows the shares.
   const bool bin = must_bin_ || drift_cells == 0;
-  if (!bin) {
-    updated_ = active_;  // the last grid stage zeroed what the binning before left outside it
-    splitRows();
-  }
+  if (!bin) splitRows();
+  if (unsummed_scatter_) emptyPartialGrids();  // left by the public stages
   binned_since_stored_ = binned_since_stored_ || bin;
   const bool store = binned_since_stored_ && steps_ - stored_step_ >= sorted_storage_interval;
   if (store) {
@@ -122,6 +121,7 @@ void MpmSolver<D>::step(Real dt) {
     }
     moveParticles(dt);  // 8, 7, 9, 10: velocities, F_E and plasticity, collisions, positions
   });
+  gridStageDone();
   collectMeasures();
   for (Collider<D>& c : colliders_) c.advance(dt);
   ++steps_;
@@ -373,8 +373,9 @@ void MpmSolver<D>::scatter(Real dt) {
   // Binned anew, a particle that moved since cannot write beyond its row's nodes; emptied, the
   // partial grids drop a scatter that no grid stage has summed.
   binParticles();
-  emptyPartialGrids();
+  if (unsummed_scatter_) emptyPartialGrids();
   rasterise(dt);
+  unsummed_scatter_ = true;
 }
 
 template <int D>
@@ -416,6 +417,7 @@ bool MpmSolver<D>::withinRowCells(int o, const Vec<D>& x, RowCells& row) const {
 
 template <int D>
 void MpmSolver<D>::emptyPartialGrids() {
+  unsummed_scatter_ = false;
   const NodeBox<D>& box = updated_;
   const int width = box.hi[0] - box.lo[0];
   if (width <= 0) return;
@@ -440,12 +442,15 @@ void MpmSolver<D>::sumPartialGrids(int k) {
   Real mass = 0;
   Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
   for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
-    if (g.mass[k] == 0) continue;    // no particle's stencil reached it (w = 0 adds zeros)
     mass += g.mass[k];
     momentum += g.momentum[k];
     if (forces) force += g.force[k];
-    // Emptied for the next scatter. Only the nodes a row wrote are written here, so the lines
-    // nobody scattered to cross between the threads' caches no more than once.
+    // Emptied for the next scatter, only where a row wrote (a cubic weight may round to 0 where
+    // its gradient does not), so the lines nobody scattered to are only read and do not pass
+    // between the threads' caches every step.
+    const bool written = g.mass[k] != 0 || (g.momentum[k].array() != 0).any() ||
+                         (forces && (g.force[k].array() != 0).any());
+    if (!written) continue;
     g.mass[k] = 0;
     g.momentum[k].setZero();
     if (forces) g.force[k].setZero();
@@ -561,11 +566,20 @@ void MpmSolver<D>::collideNode(int k) {
 template <int D>
 void MpmSolver<D>::updateGridVelocities(Real dt) {
   updateGridNodes(dt, false);
+  gridStageDone();
 }
 
 template <int D>
 void MpmSolver<D>::updateCollidedGridVelocities(Real dt) {
   updateGridNodes(dt, true);
+  gridStageDone();
+}
+
+template <int D>
+void MpmSolver<D>::gridStageDone() {
+  unsummed_scatter_ = false;
+  // The grid stage zeroed the nodes the binning before left outside active_.
+  updated_ = active_;
 }
 
 template <int D>
@@ -633,7 +647,8 @@ void MpmSolver<D>::passOverParticles(std::string_view stage, F&& update) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     PartMeasure m;
     const auto [first, last] = passChunks(part);
-    RowCells row = rowCellsAt(chunkStart(first));
+    RowCells row;
+    if constexpr (drift_cells > 0) row = rowCellsAt(chunkStart(first));
     for (int chunk = first; chunk < last; ++chunk) {
       Real energy = 0;
       for (int o = chunkStart(chunk); o < chunkStart(chunk + 1); ++o) {

@@ -58,8 +58,8 @@ class MpmSolver final : public Solver<D> {
   void profileStages(bool on) { team_.profileStages(on); }
   int profiledThreads() const { return team_.threads(); }
   const std::vector<StageTime>& stageTimes(int thread) const { return team_.stageTimes(thread); }
-  // How many times the particles were binned into rows, construction included: once, then again
-  // whenever one had moved drift_cells beyond its row's cells.
+  // How many times the particles were binned into rows, construction included. 2D: once, then
+  // again whenever one had moved more than drift_cells beyond its row's cells; 3D: every step.
   long binnings() const { return binnings_; }
 
   // The stages of one step (paper section 4), public so tests and the implicit solve can drive
@@ -70,7 +70,8 @@ class MpmSolver final : public Solver<D> {
   // 2. First step only, after updateGridVelocities: rho_p^0, V_p^0 (section 4 step 2).
   void computeParticleVolumes();
   // 4. Once after each scatter: the grid's mass, momentum and force are the sums of the partial
-  // grids, v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit).
+  // grids, v = momentum / m, then v* = v + dt f / m + dt g (eq. 8 explicit). It empties the
+  // partial grids: a second call finds no mass.
   void updateGridVelocities(Real dt);
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -113,9 +114,10 @@ class MpmSolver final : public Solver<D> {
   void forParticleArraysOfRound(int round, F&& f);  // f(array) for the round-th of each type
   void splitRows();                                 // part_rows_ from the sorted particles
   int rowColour(int row) const;
-  // Zero over updated_. The grid stage empties them as it sums them, so only a scatter that no
-  // grid stage followed needs this.
+  // Zero over updated_. The grid stage empties them as it sums them, so only a scatter of the
+  // public stages that no grid stage followed needs this.
   void emptyPartialGrids();
+  void gridStageDone();  // after each grid stage: nothing unsummed, updated_ back to active_
   // Where the particles of the row at sorted place o may be, in cells (x / h), for the nodes they
   // reach to stay the row's: [lo, hi) on each axis, unbounded at the domain's edges; and where
   // the row ends in the sorted order.
@@ -186,12 +188,13 @@ class MpmSolver final : public Solver<D> {
   static constexpr int block_cells = D == 2 ? 3 : 4;
   static constexpr int colour_stride = D == 2 ? 3 : 2;  // per axis
   static constexpr int colours = D == 2 ? colour_stride : colour_stride * colour_stride;
-  // Rows colour_stride blocks apart reach nodes block_cells * (colour_stride - 1) - 2 apart: a
-  // particle may move this many cells beyond its row's on each side and still write only its
-  // row's nodes. 2D: one cell, so the particles are binned anew only when one has moved farther
-  // (withinRowCells), 4 times in the small bench's 200 steps. 3D: none, so they are binned every
-  // step; three colours a side would be nine partial grids to sum, and blocks of 5^3 cells with
-  // two colours cost more on two threads than the binning saved (README, "Speed").
+  // The nodes reached by rows colour_stride blocks apart leave block_cells * (colour_stride -
+  // 1) - 3 nodes between them; half of that, rounded down, is how many cells a particle may move
+  // beyond its row's on either side and still write only nodes no other row of its colour can. 2D:
+  // one cell, so the particles are binned anew only when one has moved farther (withinRowCells), 4
+  // times in the small bench's 200 steps. 3D: none, so they are binned every step; three colours a
+  // side would be nine partial grids to sum, and blocks of 5^3 cells with two colours cost more on
+  // two threads than the binning saved (README, "Speed").
   static constexpr int drift_cells = (block_cells * (colour_stride - 1) - 3) / 2;
   // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
   template <class T>
@@ -257,15 +260,19 @@ class MpmSolver final : public Solver<D> {
   // in it, and at which step they were.
   IVec<D> binned_first_block_, binned_last_block_;
   bool must_bin_ = true;
+  // Whether the partial grids hold a scatter no grid stage has summed (and emptied): only the
+  // public stages leave them so.
+  bool unsummed_scatter_ = false;
   long binnings_ = 0;
   bool binned_since_stored_ = true;
   long stored_step_ = -sorted_storage_interval;
-  // The nodes within the kernel's reach of the particles' blocks, found by binParticles: the grid
-  // stages touch only these, so a small snowball in a large domain costs what the snowball does.
-  // Nodes outside stay zero: the grid stage sums the partial grids over updated_, active_ and
-  // the previous binning's, which zeroes the nodes active_ no longer covers.
+  // The nodes within the kernel's reach of the particles' blocks, widened by drift_cells, found
+  // by binParticles: the grid stages touch only these, so a small snowball in a large domain
+  // costs what the snowball does. Nodes outside stay zero: the first grid stage after a binning
+  // sums the partial grids over updated_, active_ and the previous binning's, which zeroes the
+  // nodes active_ no longer covers; the grid stages after it, over active_ alone.
   NodeBox<D> active_;
-  NodeBox<D> updated_;  // what the grid stage updates: active_ and the previous binning's
+  NodeBox<D> updated_;  // what the next grid stage updates
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Lame> lame_;  // per particle, hardened by J_P (eq. 8); refreshed with J_P
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.

@@ -122,9 +122,9 @@ class MpmSolver final : public Solver<D> {
   // reach to stay the row's: [lo, hi) on each axis, unbounded at the domain's edges; and where
   // the row ends in the sorted order.
   struct RowCells {
-    int end;
-    Vec<D> lo, hi;
-    Real inv_h;
+    int end = 0;
+    Vec<D> lo = Vec<D>::Zero(), hi = Vec<D>::Zero();
+    Real inv_h = 0;
   };
   RowCells rowCellsAt(int o) const;
   // Whether the particle at sorted place o, now at x, is within its row's cells; `row` follows a

@@ -71,23 +71,26 @@ VideoSettings RenderOptions::videoSettings(double scene_fps) const {
 
 RenderSink::RenderSink(const RenderSettings& settings, std::string png_dir,
                        const std::string& mp4_path, const VideoSettings& video)
-    : png_dir_(std::move(png_dir)), renderer_(settings) {
-  if (!mp4_path.empty())
-    video_ = std::make_unique<VideoEncoder>(mp4_path, settings.width, settings.height, video);
-}
+    : png_dir_(std::move(png_dir)),
+      renderer_(settings),
+      video_(mp4_path.empty() ? nullptr
+                              : std::make_unique<VideoEncoder>(mp4_path, settings.width,
+                                                               settings.height, video)),
+      writer_(2, video_.get()) {}
 
 void RenderSink::write(const Snapshot& snapshot) {
   Image image = renderer_.render(snapshot);
-  if (video_) video_->addFrame(image);
+  std::string png_path;
   if (!png_dir_.empty()) {
     char name[32];
     std::snprintf(name, sizeof name, "/frame_%05d.png", snapshot.frame);
-    png_writer_.write(png_dir_ + name, std::move(image));  // encoded while the next frame runs
+    png_path = png_dir_ + name;
   }
+  writer_.write(std::move(png_path), std::move(image));  // encoded while the next frame runs
 }
 
 void RenderSink::finish() {
-  png_writer_.finish();
+  writer_.finish();
   if (video_) video_->finish();
 }
 

@@ -8,7 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/frame_sink.h"
-#include "app/png_writer.h"
+#include "app/frame_writer.h"
 #include "render/renderer.h"
 #include "render/video_encoder.h"
 
@@ -54,7 +54,7 @@ class RenderSink final : public FrameSink {
   std::string png_dir_;
   Renderer renderer_;
   std::unique_ptr<VideoEncoder> video_;
-  BackgroundPngWriter png_writer_;
+  BackgroundFrameWriter writer_;  // after video_: its thread ends before the encoder does
 };
 
 }  // namespace snowsim

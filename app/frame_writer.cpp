@@ -1,10 +1,11 @@
-#include "app/png_writer.h"
+#include "app/frame_writer.h"
 
 namespace snowsim {
 
-BackgroundPngWriter::BackgroundPngWriter(int depth) : depth_(depth), thread_([this] { run(); }) {}
+BackgroundFrameWriter::BackgroundFrameWriter(int depth, VideoEncoder* video)
+    : depth_(depth), video_(video), thread_([this] { run(); }) {}
 
-BackgroundPngWriter::~BackgroundPngWriter() {
+BackgroundFrameWriter::~BackgroundFrameWriter() {
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
@@ -13,26 +14,26 @@ BackgroundPngWriter::~BackgroundPngWriter() {
   thread_.join();
 }
 
-void BackgroundPngWriter::rethrowError() {
+void BackgroundFrameWriter::rethrowError() {
   if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
 }
 
-void BackgroundPngWriter::write(std::string path, Image image) {
+void BackgroundFrameWriter::write(std::string png_path, Image image) {
   std::unique_lock lock(mutex_);
   changed_.wait(lock, [&] { return static_cast<int>(queue_.size()) < depth_ || error_; });
   rethrowError();
-  queue_.emplace_back(std::move(path), std::move(image));
+  queue_.emplace_back(std::move(png_path), std::move(image));
   lock.unlock();
   changed_.notify_all();
 }
 
-void BackgroundPngWriter::finish() {
+void BackgroundFrameWriter::finish() {
   std::unique_lock lock(mutex_);
   changed_.wait(lock, [&] { return (queue_.empty() && !writing_) || error_; });
   rethrowError();
 }
 
-void BackgroundPngWriter::run() {
+void BackgroundFrameWriter::run() {
   std::unique_lock lock(mutex_);
   while (true) {
     changed_.wait(lock, [&] { return !queue_.empty() || stopping_; });
@@ -43,7 +44,8 @@ void BackgroundPngWriter::run() {
     lock.unlock();
     std::exception_ptr failure;
     try {
-      writePng(path, image);
+      if (video_ != nullptr) video_->addFrame(image);
+      if (!path.empty()) writePng(path, image);
     } catch (...) {
       failure = std::current_exception();
     }

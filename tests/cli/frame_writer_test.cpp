@@ -1,4 +1,4 @@
-#include "app/png_writer.h"
+#include "app/frame_writer.h"
 
 #include <gtest/gtest.h>
 
@@ -27,9 +27,9 @@ std::filesystem::path freshDirectory(const char* name) {
   return dir;
 }
 
-TEST(BackgroundPngWriter, WritesEveryQueuedFrameExactly) {
-  const auto dir = freshDirectory("snowsim_png_writer_test");
-  BackgroundPngWriter writer(2);
+TEST(BackgroundFrameWriter, WritesEveryQueuedFrameExactly) {
+  const auto dir = freshDirectory("snowsim_frame_writer_test");
+  BackgroundFrameWriter writer(2);
   for (int f = 0; f < 12; ++f)  // more frames than the queue holds: write() must wait, not drop
     writer.write((dir / ("frame_" + std::to_string(f) + ".png")).string(), gradient(f));
   writer.finish();
@@ -39,10 +39,10 @@ TEST(BackgroundPngWriter, WritesEveryQueuedFrameExactly) {
   }
 }
 
-TEST(BackgroundPngWriter, AFailedWriteIsReportedNamingThePath) {
-  const auto dir = freshDirectory("snowsim_png_writer_fail");
+TEST(BackgroundFrameWriter, AFailedWriteIsReportedNamingThePath) {
+  const auto dir = freshDirectory("snowsim_frame_writer_fail");
   const std::string bad = (dir / "missing_directory" / "frame.png").string();
-  BackgroundPngWriter writer;
+  BackgroundFrameWriter writer;
   writer.write(bad, gradient(0));
   try {
     writer.finish();
@@ -51,6 +51,28 @@ TEST(BackgroundPngWriter, AFailedWriteIsReportedNamingThePath) {
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
   }
   EXPECT_FALSE(std::filesystem::exists(bad));
+}
+
+// Every frame reaches the video, the frames without a PNG path too, and only those with one are
+// written as PNG.
+TEST(BackgroundFrameWriter, FeedsTheVideoEveryFrameAndWritesOnlyThePngsAsked) {
+  const auto dir = freshDirectory("snowsim_frame_writer_video");
+  VideoEncoder video((dir / "frames.mp4").string(), 40, 30, VideoSettings{});
+  {
+    BackgroundFrameWriter writer(2, &video);
+    for (int f = 0; f < 10; ++f) {
+      const std::string png =
+          f % 2 == 0 ? (dir / ("frame_" + std::to_string(f) + ".png")).string() : std::string();
+      writer.write(png, gradient(f));
+    }
+    writer.finish();
+  }
+  EXPECT_EQ(video.framesWritten(), 10);
+  video.finish();
+  EXPECT_TRUE(std::filesystem::exists(dir / "frames.mp4"));
+  for (int f = 0; f < 10; ++f)
+    EXPECT_EQ(std::filesystem::exists(dir / ("frame_" + std::to_string(f) + ".png")), f % 2 == 0)
+        << "frame " << f;
 }
 
 }  // namespace

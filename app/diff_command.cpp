@@ -5,7 +5,7 @@
 #include "app/commands.h"
 #include "render/image.h"
 #include "render/image_diff.h"
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 

@@ -6,9 +6,9 @@
 #include "app/commands.h"
 #include "render/figure.h"
 #include "render/renderer.h"
-#include "sim/errors.h"
-#include "sim/files.h"
-#include "sim/json_fields.h"
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
+#include "sim/scene/json_fields.h"
 #include "sim/simulation.h"
 
 namespace snowsim {

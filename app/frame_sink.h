@@ -5,7 +5,7 @@
 #include <memory>
 #include <vector>
 
-#include "sim/snapshot.h"
+#include "sim/core/snapshot.h"
 
 namespace snowsim {
 

@@ -6,7 +6,7 @@
 
 #include "app/commands.h"
 #include "app/interrupt.h"
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 int main(int argc, char** argv) {
   CLI::App app{

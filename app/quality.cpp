@@ -4,7 +4,7 @@
 // are the study's rows with the same settings (MPM: the fixed dt nearest the adaptive one).
 #include "app/quality.h"
 
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 

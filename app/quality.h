@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/scene.h"
+#include "sim/scene/scene.h"
 
 namespace snowsim {
 

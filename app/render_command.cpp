@@ -8,9 +8,9 @@
 
 #include "app/commands.h"
 #include "app/render_sink.h"
-#include "sim/errors.h"
-#include "sim/files.h"
-#include "sim/ply.h"
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
+#include "sim/io/ply.h"
 
 namespace snowsim {
 

@@ -2,7 +2,7 @@
 
 #include <cstdio>
 
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 

@@ -13,9 +13,9 @@
 #include "app/quality.h"
 #include "app/render_sink.h"
 #include "render/scene_render.h"
-#include "sim/errors.h"
-#include "sim/files.h"
-#include "sim/ply.h"
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
+#include "sim/io/ply.h"
 #include "sim/simulation.h"
 
 namespace snowsim {

@@ -1,6 +1,6 @@
 // snowsim study: runs scene families over solver, time step, cell size and particles per cell,
 // and writes one CSV row per run: wall time, steps, particles, error by each metric of
-// sim/metrics.h against a reference run, and how the run ended (docs/study.md).
+// study/metrics.h against a reference run, and how the run ended (docs/study.md).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,9 +13,9 @@
 #include <sstream>
 
 #include "app/commands.h"
-#include "sim/errors.h"
-#include "sim/files.h"
-#include "sim/metrics.h"
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
+#include "study/metrics.h"
 #include "sim/simulation.h"
 
 namespace snowsim {

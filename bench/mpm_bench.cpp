@@ -17,9 +17,9 @@
 #include <thread>
 #include <vector>
 
-#include "sim/json_fields.h"
-#include "sim/mpm.h"
-#include "sim/sampling.h"
+#include "sim/scene/json_fields.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/scene/sampling.h"
 
 using namespace snowsim;
 
@@ -54,7 +54,7 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-// Each thread's stage times over one run (sim/team.h).
+// Each thread's stage times over one run (sim/parallel/team.h).
 using StageProfile = std::vector<std::vector<StageTime>>;
 
 // Particle-steps per second of one run of the scene on the given thread count; its positions,

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "sim/density_hybrid.h"
-#include "sim/sampling.h"
+#include "sim/report/density_hybrid.h"
+#include "sim/scene/sampling.h"
 
 namespace {
 

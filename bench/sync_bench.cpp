@@ -1,5 +1,5 @@
-// What it costs two threads to meet, which sim/team.h is built on, in µs per meeting (median of
-// repetitions): an empty OpenMP parallel region, against an empty task of sim/team.h's Team (its
+// What it costs two threads to meet, which sim/parallel/team.h is built on, in µs per meeting (median of
+// repetitions): an empty OpenMP parallel region, against an empty task of sim/parallel/team.h's Team (its
 // worker woken, then both meeting at the end); an OpenMP barrier, std::barrier and SpinBarrier,
 // meeting back to back and with one thread arriving 2 µs after the other. An explicit MPM step
 // is one task with three barriers (scatter, grid stage, particle pass), two more when it bins
@@ -14,7 +14,7 @@
 #include <cstdlib>
 
 #include "bench/median.h"
-#include "sim/team.h"
+#include "sim/parallel/team.h"
 
 using snowsim::SpinBarrier;
 using snowsim::Team;

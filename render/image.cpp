@@ -7,8 +7,8 @@
 #define STB_IMAGE_IMPLEMENTATION
 #include <stb/stb_image.h>
 
-#include "sim/errors.h"
-#include "sim/files.h"
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
 
 namespace snowsim {
 

@@ -16,7 +16,7 @@
 
 #include "render/gl_context.h"
 #include "render/shaders.h"
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "render/image.h"
-#include "sim/snapshot.h"
+#include "sim/core/snapshot.h"
 
 namespace snowsim {
 

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "render/renderer.h"
-#include "sim/json_fields.h"
+#include "sim/scene/json_fields.h"
 
 namespace snowsim {
 

@@ -10,7 +10,7 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 

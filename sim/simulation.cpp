@@ -4,10 +4,10 @@
 #include <cmath>
 #include <sstream>
 
-#include "sim/density_hybrid.h"
-#include "sim/errors.h"
-#include "sim/mpm.h"
-#include "sim/sampling.h"
+#include "sim/core/errors.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/report/density_hybrid.h"
+#include "sim/scene/sampling.h"
 
 namespace snowsim {
 
@@ -16,9 +16,9 @@ namespace {
 template <int D>
 class SimulationOf final : public Simulation {
  public:
-  explicit SimulationOf(const Scene& scene) : scene_(scene) {
+  SimulationOf(const Scene& scene, int threads) : scene_(scene) {
     if (scene.solver == SolverType::Mpm)
-      solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene));
+      solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene), threads);
     else
       solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));
   }
@@ -85,9 +85,9 @@ class SimulationOf final : public Simulation {
 
 }  // namespace
 
-std::unique_ptr<Simulation> makeSimulation(const Scene& scene) {
-  if (scene.dimension == 2) return std::make_unique<SimulationOf<2>>(scene);
-  return std::make_unique<SimulationOf<3>>(scene);
+std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads) {
+  if (scene.dimension == 2) return std::make_unique<SimulationOf<2>>(scene, threads);
+  return std::make_unique<SimulationOf<3>>(scene, threads);
 }
 
 }  // namespace snowsim

@@ -4,9 +4,9 @@
 
 #include <memory>
 
-#include "sim/krylov_result.h"
-#include "sim/scene.h"
-#include "sim/snapshot.h"
+#include "sim/core/krylov_result.h"
+#include "sim/core/snapshot.h"
+#include "sim/scene/scene.h"
 
 namespace snowsim {
 
@@ -25,7 +25,8 @@ class Simulation {
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
 };
 
-// Builds the particles and the solver the scene asks for, in the scene's dimension.
-std::unique_ptr<Simulation> makeSimulation(const Scene& scene);
+// Builds the particles and the solver the scene asks for, in the scene's dimension. `threads`
+// bounds the solver's threads; 0 takes the OpenMP default (OMP_NUM_THREADS, else every core).
+std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads = 0);
 
 }  // namespace snowsim

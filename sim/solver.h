@@ -3,9 +3,9 @@
 
 #include <limits>
 
-#include "sim/krylov_result.h"
-#include "sim/particles.h"
-#include "sim/snapshot.h"
+#include "sim/core/krylov_result.h"
+#include "sim/core/particles.h"
+#include "sim/core/snapshot.h"
 
 namespace snowsim {
 

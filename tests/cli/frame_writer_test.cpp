@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <string>
 
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 namespace {

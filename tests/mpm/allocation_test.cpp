@@ -10,9 +10,9 @@
 #include <cstdlib>
 #include <new>
 
-#include "sim/json_fields.h"
-#include "sim/mpm.h"
-#include "sim/sampling.h"
+#include "sim/scene/json_fields.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/scene/sampling.h"
 
 namespace {
 std::atomic<long> allocations{0};

@@ -5,13 +5,13 @@
 
 #include <random>
 
-#include "sim/errors.h"
-#include "sim/json_fields.h"
-#include "sim/krylov.h"
-#include "sim/mpm.h"
-#include "sim/mpm_implicit.h"
-#include "sim/sampling.h"
-#include "sim/stress_differential.h"
+#include "sim/core/errors.h"
+#include "sim/scene/json_fields.h"
+#include "sim/core/krylov.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/mpm/implicit_solve.h"
+#include "sim/scene/sampling.h"
+#include "sim/mpm/stress_differential.h"
 
 using namespace snowsim;
 

@@ -1,14 +1,14 @@
 // Physical tests of MPM snow (Stomakhin et al. 2013) with known answers.
-#include "sim/mpm.h"
+#include "sim/mpm/mpm_solver.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
 
 #include <algorithm>
 
-#include "sim/errors.h"
-#include "sim/json_fields.h"
-#include "sim/sampling.h"
+#include "sim/core/errors.h"
+#include "sim/scene/json_fields.h"
+#include "sim/scene/sampling.h"
 #include "sim/simulation.h"
 
 using namespace snowsim;
@@ -292,7 +292,7 @@ TEST(Mpm, TheGridKeepsNoMassWhereTheSnowWas) {
   EXPECT_NEAR(gridMass(), particle_mass, 1e-12 * particle_mass);
 }
 
-// 2D bins the particles anew once one has moved more than a cell (drift_cells, sim/mpm.h)
+// 2D bins the particles anew once one has moved more than a cell (drift_cells, sim/mpm/mpm_solver.h)
 // beyond its row's cells, and not before. A ball translating along y, sampled 2 x 2 per cell (a
 // quarter and three quarters into each cell), must be binned anew each time it has moved 1 to
 // 1.5 cells since the last binning: 2 cells less how far into its row's last cell the particle

@@ -1,4 +1,4 @@
-#include "sim/snow_material.h"
+#include "sim/mpm/snow_material.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "render/renderer.h"
-#include "sim/errors.h"
+#include "sim/core/errors.h"
 
 namespace snowsim {
 namespace {

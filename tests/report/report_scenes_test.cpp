@@ -7,9 +7,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "sim/density_hybrid.h"
-#include "sim/ply.h"
-#include "sim/sampling.h"
+#include "sim/report/density_hybrid.h"
+#include "sim/io/ply.h"
+#include "sim/scene/sampling.h"
 #include "sim/simulation.h"
 
 namespace snowsim {
@@ -136,7 +136,7 @@ TYPED_TEST(Report, Section6SmallVelocitiesNeverDieAndSnowCreepsIntoPackedCells) 
 
 // The thrown ball (body 1) against the tower (body 0), 0.5 s after the throw: how far the ball's
 // centre ends past the tower's far face (where the tower is then). The study's claim metric
-// (sim/metrics.h ballPastTower) is the same criterion.
+// (study/metrics.h ballPastTower) is the same criterion.
 template <int D>
 Real ballPastTower(const Scene& scene) {
   SceneRun<D> run(scene);

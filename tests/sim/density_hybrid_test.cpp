@@ -4,8 +4,8 @@
 
 #include <numeric>
 
-#include "sim/density_hybrid.h"
-#include "sim/sampling.h"
+#include "sim/report/density_hybrid.h"
+#include "sim/scene/sampling.h"
 
 namespace snowsim {
 namespace {

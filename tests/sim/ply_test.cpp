@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "sim/errors.h"
-#include "sim/ply.h"
+#include "sim/core/errors.h"
+#include "sim/io/ply.h"
 
 namespace snowsim {
 namespace {

@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <fstream>
 
-#include "sim/errors.h"
-#include "sim/sampling.h"
-#include "sim/scene.h"
+#include "sim/core/errors.h"
+#include "sim/scene/sampling.h"
+#include "sim/scene/scene.h"
 
 namespace snowsim {
 namespace {

@@ -1,4 +1,4 @@
-#include "sim/team.h"
+#include "sim/parallel/team.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "sim/work_shares.h"
+#include "sim/parallel/work_shares.h"
 
 #include <gtest/gtest.h>
 

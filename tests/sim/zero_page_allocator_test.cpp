@@ -1,12 +1,12 @@
 // The allocator behind the MPM partial grids: value-initialised elements read zero without being
 // written, also in memory that was used and freed before.
-#include "sim/zero_page_allocator.h"
+#include "sim/parallel/zero_page_allocator.h"
 
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "sim/math.h"
+#include "sim/core/math.h"
 
 using namespace snowsim;
 

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "sim/metrics.h"
+#include "study/metrics.h"
 #include "sim/simulation.h"
 
 namespace snowsim {

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Runs every shipped scene, and variants of the solvers' settings, with two snowsim binaries and
+# compares their PLY frames byte for byte: the check that a change of code changed no result.
+# Usage: scripts/compare_frames.sh OLD_SNOWSIM NEW_SNOWSIM [WORK_DIR]
+# Prints one line per case and exits 1 if any frame differs.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+old=$(realpath "$1")
+new=$(realpath "$2")
+work=${3:-$(mktemp -d)}
+mkdir -p "$work"
+
+cases=()
+for scene in scenes/*.json; do
+  [ "$(basename "$scene")" = figures.json ] && continue
+  cases+=("$scene --set time.duration=0.3")
+done
+fine2d=(--set 'grid.cells=[40,48]' --set grid.cell_size=0.0025)  # enough particles for threads
+cases+=(
+  "scenes/snowball_drop.json --set dimension=3 --set time.duration=0.3"
+  "scenes/column_thrown_ball.json --set solver=mpm --set time.duration=0.3"
+  "scenes/mpm_reference.json ${fine2d[*]} --set time.duration=0.2"
+  "scenes/mpm_reference.json ${fine2d[*]} --set time.duration=0.2 --set mpm.transfer=apic"
+  "scenes/mpm_reference.json ${fine2d[*]} --set time.duration=0.2 --set mpm.transfer=pic_flip"
+  "scenes/mpm_reference.json ${fine2d[*]} --set time.duration=0.2 --set mpm.kernel=cubic"
+  "scenes/mpm_reference.json --set time.duration=0.3 --set mpm.adaptive_dt=false --set time.dt=0.0004"
+  "scenes/mpm_reference.json --set time.duration=0.3 --set mpm.integrator=semi_implicit --set mpm.adaptive_dt=false --set time.dt=0.002"
+  "scenes/mpm_reference.json --set time.duration=0.3 --set mpm.initial_volume=grid_density"
+  "scenes/mpm_snowball_wall.json --set time.duration=0.2 --set mpm.transfer=apic --set mpm.kernel=cubic"
+  "scenes/mpm_snowball_drop_3d.json --set time.duration=0.1 --set mpm.integrator=semi_implicit --set mpm.adaptive_dt=false --set time.dt=0.002"
+  "scenes/study_smash_3d.json --set mpm.transfer=pic_flip"
+)
+
+failed=0
+n=0
+for c in "${cases[@]}"; do
+  for threads in 1 2; do
+    n=$((n + 1))
+    for which in old new; do
+      dir="$work/$n-$which"
+      rm -rf "$dir"
+      bin=$old
+      [ $which = new ] && bin=$new
+      # shellcheck disable=SC2086
+      OMP_NUM_THREADS=$threads "$bin" run $c -o "$dir" --no-png --no-mp4 >"$dir.log" 2>&1
+      echo "exit $?" >>"$dir.log"
+    done
+    frames=$(ls "$work/$n-old"/*.ply 2>/dev/null | wc -l)
+    same=yes
+    for f in "$work/$n-old"/*.ply; do
+      cmp -s "$f" "$work/$n-new/$(basename "$f")" || same=no
+    done
+    [ "$(ls "$work/$n-new"/*.ply 2>/dev/null | wc -l)" = "$frames" ] || same=no
+    [ "$(tail -1 "$work/$n-old.log")" = "$(tail -1 "$work/$n-new.log")" ] || same=no
+    [ $same = yes ] || failed=1
+    printf '%-4s %s threads=%d frames=%d %s\n' "$same" "$c" "$threads" "$frames" \
+      "$(tail -1 "$work/$n-new.log")"
+  done
+done
+exit $failed

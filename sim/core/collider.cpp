@@ -1,0 +1,145 @@
+#include "sim/core/collider.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace snowsim {
+
+template <int D>
+Vec<D> collideVelocity(const Vec<D>& v, const Vec<D>& n, const Vec<D>& collider_velocity,
+                       ColliderType type, Real friction) {
+  if (type == ColliderType::Sticky) return collider_velocity;
+  const Vec<D> v_rel = v - collider_velocity;
+  const Real v_n = v_rel.dot(n);
+  if (type == ColliderType::Slip) return v_rel - v_n * n + collider_velocity;
+  if (v_n >= 0) return v;  // separating: no collision
+  const Vec<D> v_t = v_rel - v_n * n;
+  const Real t = v_t.norm();
+  if (t <= -friction * v_n) return collider_velocity;         // static friction: stick
+  return v_t + friction * v_n * v_t / t + collider_velocity;  // kinetic friction
+}
+
+template <int D>
+Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v) {
+  Mat<D> free = Mat<D>::Identity();
+  int contacts = 0;
+  for (const Collider<D>& c : colliders) {
+    if (c.phi(x) > 0) continue;
+    const Vec<D> n = c.outwardNormal(x);
+    const Vec<D> v_rel = v - c.velocity;
+    const Real v_n = v_rel.dot(n);
+    if (c.type == ColliderType::Separating && v_n >= 0) continue;
+    // The static friction branch of collideVelocity: the node sticks.
+    const bool sticks =
+        c.type == ColliderType::Sticky ||
+        (c.type == ColliderType::Separating && (v_rel - v_n * n).norm() <= -c.friction * v_n);
+    v = collideVelocity<D>(v, n, c.velocity, c.type, c.friction);
+    if (++contacts > 1 || sticks) {
+      free.setZero();
+    } else {
+      free -= n * n.transpose();
+    }
+  }
+  return free;
+}
+
+template <int D>
+Real Collider<D>::phi(const Vec<D>& x) const {
+  const Vec<D> r = x - position;
+  switch (shape) {
+    case ColliderShape::HalfSpace:
+      return r.dot(normal);
+    case ColliderShape::Sphere: {
+      // A loop, not r.head(shape_dims).norm(): GCC 12 warns (falsely) on the dynamic head.
+      Real r2 = 0;
+      for (int a = 0; a < shape_dims; ++a) r2 += r[a] * r[a];
+      return std::sqrt(r2) - radius;
+    }
+    case ColliderShape::Box: {
+      Real outside = 0, inside = -std::numeric_limits<Real>::infinity();
+      for (int a = 0; a < shape_dims; ++a) {
+        const Real q = std::abs(r[a]) - half_size[a];
+        outside += q > 0 ? q * q : 0;
+        inside = std::max(inside, q);
+      }
+      return inside > 0 ? std::sqrt(outside) : inside;
+    }
+  }
+  return 0;
+}
+
+template <int D>
+Vec<D> Collider<D>::outwardNormal(const Vec<D>& x) const {
+  Vec<D> r = x - position;
+  Vec<D> n = Vec<D>::Zero();
+  switch (shape) {
+    case ColliderShape::HalfSpace:
+      return normal;
+    case ColliderShape::Sphere:
+      n.head(shape_dims) = r.head(shape_dims);
+      break;
+    case ColliderShape::Box: {
+      int deepest = 0;
+      Real inside = -std::numeric_limits<Real>::infinity();
+      for (int a = 0; a < shape_dims; ++a) {
+        const Real q = std::abs(r[a]) - half_size[a];
+        if (q > 0) n[a] = std::copysign(q, r[a]);
+        if (q > inside) inside = q, deepest = a;
+      }
+      if (inside <= 0) n[deepest] = r[deepest] < 0 ? -1 : 1;  // inside: nearest face
+      break;
+    }
+  }
+  const Real len = n.norm();
+  if (len == 0) {  // the centre of a sphere: any direction will do, choose +y
+    n.setZero();
+    n[1] = 1;
+    return n;
+  }
+  return n / len;
+}
+
+template <int D>
+std::vector<Collider<D>> makeColliders(const Scene& scene) {
+  std::vector<Collider<D>> colliders;
+  const Vec3 extent = scene.extent();
+  for (int a = 0; a < D; ++a)
+    for (int side = 0; side < 2; ++side) {
+      Collider<D> wall;
+      wall.normal[a] = side == 0 ? 1 : -1;
+      wall.position[a] = side == 0 ? 0 : extent[a];
+      const bool extruded_axis = a >= scene.authored_dimension;
+      wall.type = extruded_axis ? ColliderType::Slip : scene.mpm.wall_type;
+      wall.friction = extruded_axis ? 0 : scene.mpm.wall_friction;
+      colliders.push_back(wall);
+    }
+  const int dims = std::min(D, scene.authored_dimension);
+  for (const ColliderParams& p : scene.colliders) {
+    Collider<D> c;
+    c.shape = p.shape;
+    c.shape_dims = dims;
+    for (int a = 0; a < dims; ++a) {
+      c.position[a] = p.position[a];
+      c.normal[a] = p.normal[a];
+      c.half_size[a] = p.size[a] / 2;
+      c.velocity[a] = p.velocity[a];
+    }
+    if (D > dims) c.position[D - 1] = extent[D - 1] / 2;
+    c.radius = p.radius;
+    c.type = p.type;
+    c.friction = p.friction;
+    colliders.push_back(c);
+  }
+  return colliders;
+}
+
+template Mat<2> collideAndConstrain<2>(const std::vector<Collider<2>>&, const Vec<2>&, Vec<2>&);
+template Mat<3> collideAndConstrain<3>(const std::vector<Collider<3>>&, const Vec<3>&, Vec<3>&);
+template Vec<2> collideVelocity<2>(const Vec<2>&, const Vec<2>&, const Vec<2>&, ColliderType, Real);
+template Vec<3> collideVelocity<3>(const Vec<3>&, const Vec<3>&, const Vec<3>&, ColliderType, Real);
+template struct Collider<2>;
+template struct Collider<3>;
+template std::vector<Collider<2>> makeColliders<2>(const Scene&);
+template std::vector<Collider<3>> makeColliders<3>(const Scene&);
+
+}  // namespace snowsim

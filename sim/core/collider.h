@@ -1,0 +1,65 @@
+// Colliders described by a signed distance (Stomakhin et al. 2013, section 8): the domain walls,
+// ground planes, spheres and boxes, each optionally moving with its own velocity. A collision
+// acts on a velocity relative to the collider's (sticky, slip, or separating with Coulomb
+// friction).
+#pragma once
+
+#include <vector>
+
+#include "sim/core/math.h"
+#include "sim/scene/scene.h"
+
+namespace snowsim {
+
+// The friction rule of the paper (section 8), relative to the collider velocity v_c:
+// v_rel = v - v_c, v_n = v_rel . n; if v_n >= 0 (separating) nothing changes; v_t = v_rel - n v_n;
+// if |v_t| <= -mu v_n then v_rel = 0, else v_rel = v_t + mu v_n v_t / |v_t|; v = v_rel + v_c.
+// Sticky sets v = v_c; slip removes the normal component of v_rel whatever its sign (no friction).
+template <int D>
+Vec<D> collideVelocity(const Vec<D>& v, const Vec<D>& n, const Vec<D>& collider_velocity,
+                       ColliderType type, Real friction);
+
+template <int D>
+struct Collider {
+  ColliderShape shape = ColliderShape::HalfSpace;
+  Vec<D> position = Vec<D>::Zero();  // plane point, sphere or box centre
+  Vec<D> normal = Vec<D>::Zero();    // half space: outward unit normal
+  Real radius = 0;
+  Vec<D> half_size = Vec<D>::Zero();
+  Vec<D> velocity = Vec<D>::Zero();
+  ColliderType type = ColliderType::Separating;
+  Real friction = 0;
+  int shape_dims = D;  // axes the shape depends on; a 2D shape in a 3D slab is extruded along z
+
+  // Signed distance: negative inside the solid.
+  Real phi(const Vec<D>& x) const;
+  // Outward unit normal at x (the gradient of phi).
+  Vec<D> outwardNormal(const Vec<D>& x) const;
+
+  // Applies the collision to v at x when x is inside or on the collider (phi <= 0).
+  void collide(const Vec<D>& x, Vec<D>& v) const {
+    if (phi(x) > 0) return;
+    v = collideVelocity<D>(v, outwardNormal(x), velocity, type, friction);
+  }
+  // Moves x onto the surface if it ended inside.
+  void pushOut(Vec<D>& x) const {
+    const Real d = phi(x);
+    if (d < 0) x -= d * outwardNormal(x);
+  }
+  void advance(Real dt) { position += dt * velocity; }
+};
+
+// Applies every collider to the grid velocity v at node x (as Collider::collide does) and returns
+// the projection onto the velocity components the collisions left free, for a semi-implicit solve
+// that must hold the collided components (Stomakhin et al. 2013, section 9: collisions on v*
+// first): identity for a free node, I - n n^T where a slip or sliding contact fixes the normal
+// component, zero where the node sticks (sticky, static friction, or two contacts).
+template <int D>
+Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v);
+
+// The 2D walls of the domain box [0, extent] as half spaces, plus the scene's colliders. The walls
+// along a 2D scene's extruded z axis are frictionless slip walls, so a slab behaves like 2D.
+template <int D>
+std::vector<Collider<D>> makeColliders(const Scene& scene);
+
+}  // namespace snowsim

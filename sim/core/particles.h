@@ -1,0 +1,40 @@
+// Particles as one flat array per attribute (structure of arrays). A solver may store them in any
+// order (MPM keeps them sorted by grid block); `id` is each particle's index at creation, the order
+// snapshots and files use.
+#pragma once
+
+#include <vector>
+
+#include "sim/core/math.h"
+
+namespace snowsim {
+
+template <int D>
+struct Particles {
+  std::vector<Vec<D>> x;      // position, m
+  std::vector<Vec<D>> v;      // velocity, m/s
+  std::vector<Real> mass;     // kg
+  std::vector<Real> volume;   // initial volume V_p^0, m^D (set on the first step)
+  std::vector<Real> density;  // density rho_p^0, kg/m^D (set on the first step)
+  std::vector<int> body;      // index of the body the particle was generated in
+  std::vector<int> id;        // index at creation: stable however the solver reorders them
+
+  int size() const { return static_cast<int>(x.size()); }
+  // The positions in creation order, whatever order the particles are stored in.
+  std::vector<Vec<D>> positionsById() const {
+    std::vector<Vec<D>> by_id(x.size());
+    for (int i = 0; i < size(); ++i) by_id[id[i]] = x[i];
+    return by_id;
+  }
+  void add(const Vec<D>& position, const Vec<D>& velocity, Real m, int body_index) {
+    x.push_back(position);
+    v.push_back(velocity);
+    mass.push_back(m);
+    volume.push_back(0);
+    density.push_back(0);
+    body.push_back(body_index);
+    id.push_back(size() - 1);
+  }
+};
+
+}  // namespace snowsim

@@ -1,0 +1,18 @@
+// Frames as binary little-endian PLY: one vertex per particle with position, velocity and density
+// (and plastic_j for MPM), readable by Blender and Houdini. The grid is recorded in comments and,
+// for 2D runs, the node densities as a second element, so a frame can be rendered again later.
+#pragma once
+
+#include <string>
+
+#include "sim/core/snapshot.h"
+
+namespace snowsim {
+
+// Writes atomically (a temporary file renamed into place). Throws InputError when it cannot.
+void writePly(const std::string& path, const Snapshot& snapshot);
+
+// Reads a file written by writePly. Throws InputError naming the file and what is wrong.
+Snapshot readPly(const std::string& path);
+
+}  // namespace snowsim

@@ -1,0 +1,68 @@
+// The semi-implicit grid velocity solve of MPM snow (Stomakhin et al. 2013, section 4 step 6 and
+// eq. 9): (I + beta dt^2 M^-1 d2Phi/dx2) v^{n+1} = v*, matrix-free, by conjugate residual on the
+// mass-weighted (hence symmetric) form M A v = M v*. beta = 1 backward Euler, 1/2 trapezoidal,
+// 0 explicit. The hardening (J_P, so mu and lambda) is frozen within the step.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "sim/core/grid.h"
+#include "sim/core/krylov.h"
+#include "sim/core/particles.h"
+#include "sim/scene/scene.h"
+#include "sim/mpm/snow_material.h"
+
+namespace snowsim {
+
+template <int D>
+class ImplicitVelocitySolve {
+ public:
+  // Per-step setup: active nodes (mass > 0), each particle's stencil nodes and weight gradients,
+  // F_E and Lamé parameters. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
+  // APIC/MLS, the same ones the explicit force and the F_E update use.
+  void prepare(const GridGeometry<D>& grid, const GridFields<D>& fields,
+               const Particles<D>& particles, const std::vector<Mat<D>>& F_E,
+               const std::vector<Lame>& lame, const MpmParams& params, Real dt);
+
+  // Replaces fields.velocity (v*, already collided) of the active nodes by the solution v^{n+1}.
+  // node_free (per grid node) projects onto the velocity components the collisions left free
+  // (collideAndConstrain); the others keep their collided value: the solve runs on
+  // P M A P u + (I - P) M u = P (M v* - M A (I - P) v*) + (I - P) M v*, still symmetric.
+  KrylovResult solve(GridFields<D>& fields, const std::vector<Mat<D>>& node_free, Real beta,
+                     Real tolerance, int max_iterations);
+
+  // y = M A u = M u - beta dt df(u) over the active nodes (flat, D entries per node), with
+  // df_i = -sum_p V_p^0 dP(F_E,p; dF_p) F_E,p^T g_ip and dF_p = dt (sum_i u_i g_ip^T) F_E,p.
+  void applyMassWeighted(const Eigen::VectorXd& u, Eigen::VectorXd& y, Real beta) const;
+
+  int activeNodes() const { return static_cast<int>(active_.size()); }
+  // Flat vector of the active nodes' velocities, and the reverse.
+  void gather(const GridFields<D>& fields, Eigen::VectorXd& u) const;
+  void scatter(const Eigen::VectorXd& u, GridFields<D>& fields) const;
+
+ private:
+  // y = P M A P u + (I - P) M u, the operator with the collided components held.
+  void applyConstrained(const Eigen::VectorXd& u, Eigen::VectorXd& y, Real beta) const;
+  template <class Kernel>
+  void prepareWith(const GridGeometry<D>& grid, const Particles<D>& particles,
+                   const MpmParams& params);
+
+  Real dt_ = 0;
+  int stencil_nodes_ = 0;
+  std::vector<int> active_;       // grid node index of each active node
+  std::vector<int> active_of_;    // grid node -> active index, or -1
+  std::vector<Real> mass_;        // mass of each active node
+  std::vector<int> stencil_;      // per particle, stencil_nodes_ active indices (-1: massless)
+  std::vector<Vec<D>> gradient_;  // per particle, stencil_nodes_ weight gradients
+  std::vector<Real> volume_;      // V_p^0
+  std::vector<Mat<D>> F_;         // F_E,p
+  std::vector<Lame> lame_;        // hardened Lamé parameters, frozen within the step
+  mutable std::vector<Mat<D>> stress_differential_;  // V_p^0 dP F_E^T per particle
+  std::vector<Mat<D>> free_;  // per active node: projection onto the free components
+  ConjugateResidualWork work_;
+  Eigen::VectorXd rhs_, x_;
+  mutable Eigen::VectorXd projected_;  // P u inside applyConstrained
+};
+
+}  // namespace snowsim

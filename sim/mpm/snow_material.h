@@ -1,0 +1,78 @@
+// The snow constitutive model of Stomakhin et al. 2013 ("A Material Point Method for Snow
+// Simulation", ACM TOG 32(4) 102): fixed-corotated elasticity with hardening and a plastic return
+// mapping that clamps the singular values of the elastic deformation gradient. Pure functions.
+#pragma once
+
+#include "sim/core/math.h"
+
+namespace snowsim {
+
+// Material parameters; defaults are the paper's reference snow (section 7, table 2).
+struct SnowMaterial {
+  Real E0 = 1.4e5;        // Young's modulus, Pa
+  Real nu = 0.2;          // Poisson's ratio
+  Real theta_c = 2.5e-2;  // critical compression
+  Real theta_s = 7.5e-3;  // critical stretch
+  Real xi = 10;           // hardening coefficient
+
+  // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
+  Real mu0() const { return E0 / (2 * (1 + nu)); }
+  Real lambda0() const { return E0 * nu / ((1 + nu) * (1 - 2 * nu)); }
+};
+
+// Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 e^{xi (1 - J_P)}, same for
+// lambda).
+struct Lame {
+  Real mu;
+  Real lambda;
+};
+Lame hardenedLame(const SnowMaterial& m, Real J_P);
+
+// Polar decomposition F = R S with R a rotation (det R = +1), S symmetric.
+// 2x2: closed form; 3x3: from the SVD.
+template <int D>
+Mat<D> polarRotation(const Mat<D>& F);
+
+// Singular value decomposition F = U diag(sigma) V^T with U, V rotations (det = +1); a negative
+// determinant of F shows up as a negative last singular value.
+template <int D>
+void signedSvd(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
+// Same, with V on entry a guess of the result (a rotation, e.g. the last step's V): F^T F in that
+// basis is nearly diagonal, so the 3x3 solve needs a few Jacobi rotations instead of a full
+// eigen-decomposition. The result is the same to round-off whatever the guess.
+template <int D>
+void signedSvdFrom(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
+
+// Fixed-corotated first Piola-Kirchhoff stress (paper eq. 6 differentiated):
+// P = dPsi/dF_E = 2 mu (F_E - R_E) + lambda (J_E - 1) J_E F_E^{-T}.
+template <int D>
+Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame);
+
+// The Kirchhoff stress P F_E^T = 2 mu (F_E - R_E) F_E^T + lambda (J_E - 1) J_E I, which is what the
+// grid force sum needs (f_i = -sum_p V_p^0 P_p F_E^T grad w_ip, paper eq. 7) and is free of F^{-T}.
+// R_E is the polar rotation of F_E (polarRotation, or kept from the return mapping).
+template <int D>
+Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Mat<D>& R_E, const Lame& lame);
+
+// Plastic return mapping (paper section 5, eqs. 9-11): F = F_E F_P with F_E the trial elastic
+// gradient; clamps the singular values of F_E to [1 - theta_c, 1 + theta_s], moves the rest into
+// F_P (F_P = V S^-1 U^T F) and returns the new J_P = det F_P. F_E and F_P are updated in place.
+template <int D>
+Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
+
+// Same, tracking only J_P (what the model needs: hardening depends on J_P alone). Returns new J_P
+// and sets R_E to the polar rotation U V^T of the new F_E, which the next stress evaluation
+// needs: one decomposition per particle per step instead of two. F_E is left bit for bit as it is
+// when no singular value is clamped. 2D works in closed form through the polar decomposition. 3D
+// finds the polar rotation by Newton's iteration and needs an SVD only when a singular value
+// leaves its bounds; V_E holds the right singular vectors of the last SVD, the next one's starting
+// guess.
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E);
+Real plasticReturnMappingJ(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E, Mat<3>& V_E);
+
+// P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
+inline Real pWaveSpeed(const Lame& lame, Real rho) {
+  return std::sqrt((lame.lambda + 2 * lame.mu) / rho);
+}
+
+}  // namespace snowsim

@@ -1,0 +1,183 @@
+#include "sim/scene/json_fields.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace snowsim {
+
+int editDistance(const std::string& a, const std::string& b) {
+  std::vector<int> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = static_cast<int>(j);
+  for (size_t i = 1; i <= a.size(); ++i) {
+    int diagonal = row[0];
+    row[0] = static_cast<int>(i);
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const int above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+namespace {
+
+std::string formatNumber(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+std::string typeName(const Json& j) {
+  if (j.is_boolean()) return "a boolean";
+  if (j.is_number()) return "a number";
+  if (j.is_string()) return "a string";
+  if (j.is_array()) return "an array";
+  if (j.is_object()) return "an object";
+  return "null";
+}
+
+std::string joinNames(const std::vector<std::string>& names) {
+  std::string r;
+  for (size_t i = 0; i < names.size(); ++i) r += (i ? ", \"" : "\"") + names[i] + "\"";
+  return r;
+}
+
+}  // namespace
+
+JsonFields::JsonFields(const Json& object, std::string path, std::string file)
+    : object_(object), path_(std::move(path)), file_(std::move(file)) {
+  if (!object_.is_object())
+    throw InputError(file_ + ": " + (path_.empty() ? "the scene" : path_) +
+                     ": expected an object, found " + typeName(object_));
+}
+
+bool JsonFields::has(const std::string& key) const {
+  return object_.contains(key);
+}
+
+std::string JsonFields::fieldPath(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+void JsonFields::fail(const std::string& key, const std::string& message) const {
+  throw InputError(file_ + ": " + fieldPath(key) + ": " + message);
+}
+
+const Json* JsonFields::lookup(const std::string& key, bool required) {
+  known_.push_back(key);
+  read_.insert(key);
+  auto it = object_.find(key);
+  if (it == object_.end()) {
+    if (!required) return nullptr;
+    // A misspelt required field is better reported as the misspelling.
+    for (auto other = object_.begin(); other != object_.end(); ++other)
+      if (editDistance(other.key(), key) <= 2)
+        fail(other.key(), "unknown field; did you mean \"" + key + "\"?");
+    fail(key, "missing (this field is required)");
+  }
+  return &*it;
+}
+
+double JsonFields::number(const std::string& key, std::optional<double> fallback, double lo,
+                          double hi, bool lo_open, bool hi_open) {
+  const Json* j = lookup(key, !fallback);
+  if (!j) return *fallback;
+  if (!j->is_number()) fail(key, "expected a number, found " + typeName(*j));
+  const double x = j->get<double>();
+  const bool below = lo_open ? !(x > lo) : !(x >= lo);
+  const bool above = hi_open ? !(x < hi) : !(x <= hi);
+  if (!std::isfinite(x) || below || above) {
+    std::string range = std::string(lo_open ? "(" : "[") + formatNumber(lo) + ", " +
+                        formatNumber(hi) + (hi_open ? ")" : "]");
+    fail(key, formatNumber(x) + " is out of range; allowed: " + range);
+  }
+  return x;
+}
+
+int JsonFields::integer(const std::string& key, std::optional<int> fallback, int lo, int hi) {
+  const Json* j = lookup(key, !fallback);
+  if (!j) return *fallback;
+  if (!j->is_number_integer()) fail(key, "expected a whole number, found " + typeName(*j));
+  const auto x = j->get<long long>();
+  if (x < lo || x > hi)
+    fail(key, std::to_string(x) + " is out of range; allowed: " + std::to_string(lo) + " to " +
+                  std::to_string(hi));
+  return static_cast<int>(x);
+}
+
+bool JsonFields::boolean(const std::string& key, std::optional<bool> fallback) {
+  const Json* j = lookup(key, !fallback);
+  if (!j) return *fallback;
+  if (!j->is_boolean()) fail(key, "expected true or false, found " + typeName(*j));
+  return j->get<bool>();
+}
+
+std::string JsonFields::string(const std::string& key, std::optional<std::string> fallback) {
+  const Json* j = lookup(key, !fallback);
+  if (!j) return *fallback;
+  if (!j->is_string()) fail(key, "expected a string, found " + typeName(*j));
+  return j->get<std::string>();
+}
+
+std::string JsonFields::choice(const std::string& key, const std::vector<std::string>& allowed,
+                               std::optional<std::string> fallback) {
+  const std::string value = string(key, fallback);
+  if (std::find(allowed.begin(), allowed.end(), value) == allowed.end())
+    fail(key, "\"" + value + "\" is not allowed; allowed: " + joinNames(allowed));
+  return value;
+}
+
+std::vector<double> JsonFields::numbers(const std::string& key,
+                                        std::optional<std::vector<double>> fallback,
+                                        std::vector<int> lengths) {
+  const Json* j = lookup(key, !fallback);
+  if (!j) return *fallback;
+  std::string want;
+  for (size_t i = 0; i < lengths.size(); ++i)
+    want += (i ? " or " : "") + std::to_string(lengths[i]);
+  if (!j->is_array()) fail(key, "expected an array of " + want + " numbers, found " + typeName(*j));
+  const int n = static_cast<int>(j->size());
+  if (std::find(lengths.begin(), lengths.end(), n) == lengths.end())
+    fail(key, "expected " + want + " numbers, found " + std::to_string(n));
+  std::vector<double> r;
+  for (const Json& e : *j) {
+    if (!e.is_number() || !std::isfinite(e.get<double>()))
+      fail(key, "expected finite numbers, found " + typeName(e));
+    r.push_back(e.get<double>());
+  }
+  return r;
+}
+
+const Json* JsonFields::object(const std::string& key, bool required) {
+  const Json* j = lookup(key, required);
+  if (j && !j->is_object()) fail(key, "expected an object, found " + typeName(*j));
+  return j;
+}
+
+const Json* JsonFields::array(const std::string& key, bool required) {
+  const Json* j = lookup(key, required);
+  if (j && !j->is_array()) fail(key, "expected an array, found " + typeName(*j));
+  return j;
+}
+
+void JsonFields::finish() const {
+  for (auto it = object_.begin(); it != object_.end(); ++it) {
+    if (read_.count(it.key())) continue;
+    std::string best;
+    int best_distance = 1 << 30;
+    for (const std::string& k : known_) {
+      const int d = editDistance(it.key(), k);
+      if (d < best_distance) best_distance = d, best = k;
+    }
+    std::string message = "unknown field";
+    if (!best.empty() && best_distance <= std::max<int>(2, best.size() / 2))
+      message += "; did you mean \"" + best + "\"?";
+    else if (!known_.empty())
+      message += "; allowed: " + joinNames(known_);
+    fail(it.key(), message);
+  }
+}
+
+}  // namespace snowsim

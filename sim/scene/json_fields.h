@@ -1,0 +1,65 @@
+// Reading one JSON object of a scene file field by field, with the checks and messages users need:
+// the file, the field's path, what was wrong and what is allowed. Every key of the object must be
+// read, or finish() names the unknown one and the closest valid name.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/core/errors.h"
+
+namespace snowsim {
+
+using Json = nlohmann::json;
+
+// Levenshtein distance, for "did you mean" suggestions.
+int editDistance(const std::string& a, const std::string& b);
+
+class JsonFields {
+ public:
+  JsonFields(const Json& object, std::string path, std::string file);
+
+  bool has(const std::string& key) const;
+  const std::string& path() const { return path_; }
+  std::string fieldPath(const std::string& key) const;
+
+  // Numbers in [lo, hi]; open bounds when the flags say so.
+  double number(const std::string& key, std::optional<double> fallback,
+                double lo = -std::numeric_limits<double>::infinity(),
+                double hi = std::numeric_limits<double>::infinity(), bool lo_open = false,
+                bool hi_open = false);
+  int integer(const std::string& key, std::optional<int> fallback, int lo, int hi);
+  bool boolean(const std::string& key, std::optional<bool> fallback);
+  std::string string(const std::string& key, std::optional<std::string> fallback);
+  // One of the allowed names.
+  std::string choice(const std::string& key, const std::vector<std::string>& allowed,
+                     std::optional<std::string> fallback);
+  // An array of numbers whose length is one of the allowed lengths.
+  std::vector<double> numbers(const std::string& key, std::optional<std::vector<double>> fallback,
+                              std::vector<int> lengths);
+  // A sub-object or an array, marked as read; the caller checks inside it.
+  const Json* object(const std::string& key, bool required);
+  const Json* array(const std::string& key, bool required);
+
+  // Throws if the object has a key none of the readers asked for.
+  void finish() const;
+
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const;
+
+ private:
+  const Json* lookup(const std::string& key, bool required);
+
+  const Json& object_;
+  std::string path_;
+  std::string file_;
+  std::set<std::string> read_;
+  std::vector<std::string> known_;
+};
+
+}  // namespace snowsim

@@ -1,0 +1,81 @@
+#include "sim/scene/sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace snowsim {
+
+bool bodyContains(const Body& body, const Vec3& p, int shape_dimension) {
+  double r2 = 0, along_cut = 0;
+  for (int a = 0; a < shape_dimension; ++a) {
+    const double d = p[a] - body.center[a];
+    if (body.shape == BodyShape::Box && std::abs(d) > body.size[a] / 2) return false;
+    r2 += d * d;
+    along_cut += d * body.cut_normal[a];
+  }
+  switch (body.shape) {
+    case BodyShape::Box:
+      return true;
+    case BodyShape::Ball:
+      return r2 <= body.radius * body.radius;
+    case BodyShape::HalfBall:
+      return r2 <= body.radius * body.radius && along_cut >= 0;
+  }
+  return false;
+}
+
+double particleSpacing(const Scene& scene, const Body& body) {
+  const double per_axis =
+      std::round(std::pow(body.particles_per_cell, 1.0 / scene.authored_dimension));
+  return scene.cell_size / per_axis;
+}
+
+template <int D>
+Particles<D> sampleBodies(const Scene& scene) {
+  Particles<D> particles;
+  const double h = scene.cell_size;
+  const int shape_dim = scene.authored_dimension;
+  for (size_t b = 0; b < scene.bodies.size(); ++b) {
+    const Body& body = scene.bodies[b];
+    const double spacing = particleSpacing(scene, body);
+    // Every particle stands for an equal share of its cell's volume (for 2D, per metre of depth).
+    const double mass = body.density * std::pow(spacing, D);
+
+    // Lattice range covering the body's bounding box (the whole slab depth when extruded).
+    int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (int a = 0; a < D; ++a) {
+      double from = 0, to = scene.cells[a] * h;
+      if (a < shape_dim) {
+        const double half = body.shape == BodyShape::Box ? body.size[a] / 2 : body.radius;
+        from = std::max(from, body.center[a] - half);
+        to = std::min(to, body.center[a] + half);
+      }
+      lo[a] = static_cast<int>(std::floor(from / spacing));
+      hi[a] = static_cast<int>(std::ceil(to / spacing));
+    }
+    Vec<D> velocity;
+    for (int a = 0; a < D; ++a) velocity[a] = a < shape_dim ? body.velocity[a] : 0.0;
+
+    int k[3];
+    for (k[2] = lo[2]; k[2] <= (D == 3 ? hi[2] : 0); ++k[2])
+      for (k[1] = lo[1]; k[1] <= hi[1]; ++k[1])
+        for (k[0] = lo[0]; k[0] <= hi[0]; ++k[0]) {
+          Vec3 p{0, 0, 0};
+          Vec<D> x;
+          bool inside_domain = true;
+          for (int a = 0; a < D; ++a) {
+            p[a] = (k[a] + 0.5) * spacing;
+            x[a] = p[a];
+            inside_domain &= k[a] >= 0 && p[a] < scene.cells[a] * h;
+          }
+          if (inside_domain && bodyContains(body, p, shape_dim))
+            particles.add(x, velocity, mass, static_cast<int>(b));
+        }
+  }
+  return particles;
+}
+
+template Particles<2> sampleBodies<2>(const Scene&);
+template Particles<3> sampleBodies<3>(const Scene&);
+
+}  // namespace snowsim

@@ -1,0 +1,21 @@
+// Particle generation: each body is filled with a regular lattice of particles_per_cell points per
+// cell (n per axis at the cell-relative positions (k + 1/2) / n), keeping the points inside it.
+#pragma once
+
+#include "sim/core/particles.h"
+#include "sim/scene/scene.h"
+
+namespace snowsim {
+
+// True when point p (scene coordinates, 3 entries; z ignored for 2D shapes) lies in the body.
+bool bodyContains(const Body& body, const Vec3& p, int shape_dimension);
+
+// Distance between neighbouring particles of a body's lattice.
+double particleSpacing(const Scene& scene, const Body& body);
+
+// Fills every body of the scene. A 2D-authored scene run in 3D extrudes each body through the
+// slab's whole depth.
+template <int D>
+Particles<D> sampleBodies(const Scene& scene);
+
+}  // namespace snowsim

@@ -1,0 +1,330 @@
+#include "sim/scene/scene.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "sim/scene/json_fields.h"
+
+namespace snowsim {
+
+Vec3 Scene::extent() const {
+  return {cells[0] * cell_size, cells[1] * cell_size, dimension == 3 ? cells[2] * cell_size : 0};
+}
+
+int Scene::frameCount() const {
+  return static_cast<int>(std::lround(duration * fps));
+}
+
+Json readJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // Turn the byte offset into a line and column.
+    int line = 1, column = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n')
+        line++, column = 1;
+      else
+        column++;
+    }
+    std::string what = e.what();
+    const auto colon = what.find("syntax error");
+    throw InputError(
+        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
+        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  }
+}
+
+void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError("--set " + assignment + ": expected key=value, e.g. time.dt=0.0005");
+  const std::string path = assignment.substr(0, eq);
+  const std::string text = assignment.substr(eq + 1);
+  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) value = text;
+
+  Json* node = &root;
+  std::stringstream parts(path);
+  std::string part, walked;
+  std::getline(parts, part, '.');
+  while (true) {
+    walked += (walked.empty() ? "" : ".") + part;
+    std::string next;
+    const bool last = !std::getline(parts, next, '.');
+    if (node->is_array()) {
+      char* end = nullptr;
+      const long k = std::strtol(part.c_str(), &end, 10);
+      if (part.empty() || *end || k < 0 || k >= static_cast<long>(node->size()))
+        throw InputError(file + ": --set " + walked + ": no element " + part + " (the array has " +
+                         std::to_string(node->size()) + ")");
+      node = &(*node)[k];
+    } else if (node->is_object() || node->is_null()) {
+      node = &(*node)[part];
+    } else {
+      throw InputError(file + ": --set " + walked + ": cannot set a field inside a " +
+                       node->type_name());
+    }
+    if (last) break;
+    part = next;
+  }
+  *node = value;
+}
+
+namespace {
+
+Vec3 toVec3(const std::vector<double>& v) {
+  Vec3 r{0, 0, 0};
+  for (size_t i = 0; i < v.size() && i < 3; ++i) r[i] = v[i];
+  return r;
+}
+
+// Extents of a box: every one must be positive.
+Vec3 positiveExtents(JsonFields& f, const std::string& key, int dimension) {
+  const Vec3 size = toVec3(f.numbers(key, std::nullopt, {dimension}));
+  for (int a = 0; a < dimension; ++a)
+    if (!(size[a] > 0)) f.fail(key, "every extent must be positive; allowed: (0, inf) m");
+  return size;
+}
+
+// A direction, normalised; the zero vector is refused.
+Vec3 unitDirection(JsonFields& f, const std::string& key, Vec3 direction) {
+  double n2 = 0;
+  for (double x : direction) n2 += x * x;
+  if (!(n2 > 0)) f.fail(key, "must not be the zero vector");
+  for (double& x : direction) x /= std::sqrt(n2);
+  return direction;
+}
+
+DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
+  DensityHybridParams p;
+  if (!j) return p;
+  JsonFields f(*j, "density_hybrid", file);
+  p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
+  p.critical_multiplier = f.number("critical_multiplier", p.critical_multiplier, 0, 1e6, true);
+  const auto reference = f.choice("critical_reference", {"particle_mass_per_cell", "rest_density"},
+                                  "particle_mass_per_cell");
+  p.critical_reference = reference == "rest_density" ? CriticalReference::RestDensity
+                                                     : CriticalReference::ParticleMassPerCell;
+  const auto walls = f.choice("walls", {"hold_grid", "slip_grid", "particles_only"}, "hold_grid");
+  p.walls = walls == "hold_grid"   ? WallRule::HoldGrid
+            : walls == "slip_grid" ? WallRule::SlipGrid
+                                   : WallRule::ParticlesOnly;
+  p.flip_reference =
+      f.choice("flip_reference", {"rasterised", "equalised"}, "rasterised") == "rasterised"
+          ? FlipReference::Rasterised
+          : FlipReference::Equalised;
+  p.kernel = f.choice("kernel", {"cubic", "quadratic"}, "cubic") == "cubic" ? KernelType::Cubic
+                                                                            : KernelType::Quadratic;
+  f.finish();
+  return p;
+}
+
+ColliderType parseColliderType(JsonFields& f, const std::string& key, const std::string& fallback) {
+  const auto t = f.choice(key, {"sticky", "slip", "separating"}, fallback);
+  return t == "sticky" ? ColliderType::Sticky
+         : t == "slip" ? ColliderType::Slip
+                       : ColliderType::Separating;
+}
+
+MpmParams parseMpm(const Json* j, const std::string& file) {
+  MpmParams p;
+  if (!j) return p;
+  JsonFields f(*j, "mpm", file);
+  const auto transfer = f.choice("transfer", {"pic_flip", "apic", "mls"}, "mls");
+  p.transfer = transfer == "pic_flip" ? MpmTransfer::PicFlip
+               : transfer == "apic"   ? MpmTransfer::Apic
+                                      : MpmTransfer::Mls;
+  p.flip_alpha = f.number("flip_alpha", p.flip_alpha, 0, 1);
+  p.kernel = f.choice("kernel", {"quadratic", "cubic"}, "quadratic") == "quadratic"
+                 ? KernelType::Quadratic
+                 : KernelType::Cubic;
+  const auto integrator = f.choice("integrator", {"explicit", "semi_implicit"}, "explicit");
+  p.integrator =
+      integrator == "semi_implicit" ? MpmIntegrator::SemiImplicit : MpmIntegrator::Explicit;
+  p.implicit_beta = f.number("beta", p.implicit_beta, 0, 1);
+  p.implicit_tolerance = f.number("tolerance", p.implicit_tolerance, 0, 1, true);
+  p.implicit_max_iterations = f.integer("max_iterations", p.implicit_max_iterations, 1, 100000);
+  p.cfl = f.number("cfl", p.cfl, 0, 1, true);
+  p.adaptive_dt = f.boolean("adaptive_dt", p.adaptive_dt);
+  p.initial_volume = f.choice("initial_volume", {"lattice", "grid_density"}, "lattice") == "lattice"
+                         ? InitialVolume::Lattice
+                         : InitialVolume::GridDensity;
+  if (const Json* walls = f.object("walls", false)) {
+    JsonFields w(*walls, "mpm.walls", file);
+    p.wall_type = parseColliderType(w, "type", "separating");
+    p.wall_friction = w.number("friction", p.wall_friction, 0, 1e3);
+    w.finish();
+  }
+  f.finish();
+  return p;
+}
+
+SnowMaterial parseMaterial(const Json* j, const std::string& file) {
+  SnowMaterial m;
+  if (!j) return m;
+  JsonFields f(*j, "material", file);
+  m.E0 = f.number("E0", m.E0, 0, 1e12, true);
+  m.nu = f.number("nu", m.nu, -1, 0.5, true, true);
+  m.theta_c = f.number("theta_c", m.theta_c, 0, 1, true, true);
+  m.theta_s = f.number("theta_s", m.theta_s, 0, 1, true, true);
+  m.xi = f.number("xi", m.xi, 0, 1e3);
+  f.finish();
+  return m;
+}
+
+ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
+  JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
+  const std::vector<int> dims{scene.authored_dimension};
+  ColliderParams c;
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box"}, std::nullopt);
+  c.shape = shape == "half_space" ? ColliderShape::HalfSpace
+            : shape == "sphere"   ? ColliderShape::Sphere
+                                  : ColliderShape::Box;
+  c.position = toVec3(f.numbers("position", std::nullopt, dims));
+  if (c.shape == ColliderShape::HalfSpace) {
+    c.normal = unitDirection(f, "normal", toVec3(f.numbers("normal", std::nullopt, dims)));
+  } else if (c.shape == ColliderShape::Sphere) {
+    c.radius = f.number("radius", std::nullopt);
+    if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
+  } else {
+    c.size = positiveExtents(f, "size", scene.authored_dimension);
+  }
+  c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+  c.type = parseColliderType(f, "type", "separating");
+  c.friction = f.number("friction", c.friction, 0, 1e3);
+  f.finish();
+  return c;
+}
+
+bool isPerfectPower(int n, int dim, int& root) {
+  for (root = 1; root <= n; ++root) {
+    const int p = dim == 2 ? root * root : root * root * root;
+    if (p == n) return true;
+    if (p > n) break;
+  }
+  return false;
+}
+
+Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
+  const std::string path = "bodies[" + std::to_string(index) + "]";
+  JsonFields f(j, path, scene.file);
+  const std::vector<int> dims{scene.authored_dimension};
+  Body b;
+  b.name = f.string("name", "body" + std::to_string(index));
+  const auto shape = f.choice("shape", {"ball", "box", "half_ball"}, std::nullopt);
+  b.shape = shape == "ball"  ? BodyShape::Ball
+            : shape == "box" ? BodyShape::Box
+                             : BodyShape::HalfBall;
+  b.center = toVec3(f.numbers("center", std::nullopt, dims));
+  if (b.shape == BodyShape::Box) {
+    b.size = positiveExtents(f, "size", scene.authored_dimension);
+  } else {
+    b.radius = f.number("radius", std::nullopt, 0, 1e6, true);
+  }
+  if (b.shape == BodyShape::HalfBall) {
+    Vec3 cut = toVec3(f.numbers("cut_normal", std::vector<double>(dims[0], 0.0), dims));
+    if (!f.has("cut_normal")) cut[1] = 1;
+    b.cut_normal = unitDirection(f, "cut_normal", cut);
+  }
+  b.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+  b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);
+  int root;
+  if (!isPerfectPower(b.particles_per_cell, scene.authored_dimension, root))
+    f.fail("particles_per_cell",
+           std::to_string(b.particles_per_cell) + " is not a " +
+               (scene.authored_dimension == 2 ? "square" : "cube") + "; allowed: " +
+               (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ..."));
+  b.density = f.number("density", b.density, 0, 1e6, true);
+  f.finish();
+
+  // The body's bounding box must lie inside the domain.
+  const Vec3 extent = scene.extent();
+  for (int a = 0; a < scene.authored_dimension; ++a) {
+    const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
+    if (b.center[a] - half < -1e-12 || b.center[a] + half > extent[a] + 1e-12) {
+      std::ostringstream s;
+      s << "the body reaches outside the grid along axis "
+        << "xyz"[a] << " ([" << b.center[a] - half << ", " << b.center[a] + half
+        << "] m; the grid spans [0, " << extent[a] << "] m)";
+      f.fail("center", s.str());
+    }
+  }
+  return b;
+}
+
+}  // namespace
+
+Scene parseScene(const Json& root, const std::string& file) {
+  Scene s;
+  s.file = file;
+  JsonFields f(root, "", file);
+  s.name = f.string("name", std::nullopt);
+  s.description = f.string("description", "");
+  s.dimension = f.integer("dimension", 2, 2, 3);
+
+  const Json* grid = f.object("grid", false);
+  const Json empty = Json::object();
+  JsonFields g(grid ? *grid : empty, "grid", file);
+  const auto cells = g.numbers("cells", std::vector<double>{10, 12}, {2, 3});
+  s.authored_dimension = static_cast<int>(cells.size());
+  if (s.authored_dimension == 3 && s.dimension == 2)
+    g.fail("cells", "has 3 entries but the scene's dimension is 2 (a 3D scene cannot run in 2D)");
+  for (size_t a = 0; a < cells.size(); ++a) {
+    if (cells[a] != std::floor(cells[a]) || cells[a] < 1 || cells[a] > 4096)
+      g.fail("cells", "each entry must be a whole number from 1 to 4096");
+    s.cells[a] = static_cast<int>(cells[a]);
+  }
+  // A 2D scene run in 3D is a slab this many cells deep, bodies extruded through it (the report
+  // ran its 2D method on a 10x12x1 grid).
+  s.cells[2] = s.authored_dimension == 3 ? s.cells[2] : g.integer("depth_cells", 1, 1, 4096);
+  s.cell_size = g.number("cell_size", 0.01, 0, 1e3, true);
+  g.finish();
+
+  s.gravity = toVec3(f.numbers(
+      "gravity",
+      s.authored_dimension == 2 ? std::vector<double>{0, -9.81} : std::vector<double>{0, -9.81, 0},
+      {s.authored_dimension}));
+
+  s.solver = f.choice("solver", {"density_hybrid", "mpm"}, "density_hybrid") == "mpm"
+                 ? SolverType::Mpm
+                 : SolverType::DensityHybrid;
+  s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
+  s.mpm = parseMpm(f.object("mpm", false), file);
+  s.material = parseMaterial(f.object("material", false), file);
+  if (const Json* colliders = f.array("colliders", false))
+    for (size_t i = 0; i < colliders->size(); ++i)
+      s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));
+
+  const Json* time = f.object("time", false);
+  JsonFields t(time ? *time : empty, "time", file);
+  s.dt = t.number("dt", 0.001, 0, 10, true);
+  s.duration = t.number("duration", 1.0, 0, 1e6);
+  s.fps = t.number("fps", 50, 0, 1e4, true);
+  t.finish();
+
+  const int default_ppc =
+      f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
+  const Json* bodies = f.array("bodies", true);
+  if (bodies->empty()) f.fail("bodies", "needs at least one body");
+  for (size_t i = 0; i < bodies->size(); ++i)
+    s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, default_ppc));
+
+  if (const Json* render = f.object("render", false)) s.render = *render;
+  f.finish();
+  return s;
+}
+
+Scene loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+  Json root = readJsonFile(path);
+  for (const std::string& o : overrides) applyOverride(root, o, path);
+  return parseScene(root, path);
+}
+
+}  // namespace snowsim

@@ -1,0 +1,130 @@
+// A scene file, parsed and validated: the grid, the solver and its parameters, time stepping and
+// the bodies of snow. See docs/scene-format.md for every field.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/core/bspline.h"
+#include "sim/mpm/snow_material.h"
+
+namespace snowsim {
+
+using Vec3 = std::array<double, 3>;
+
+enum class SolverType { DensityHybrid, Mpm };
+enum class BodyShape { Ball, Box, HalfBall };
+
+// The readings of the report's vague passages (docs/report-readings.md).
+enum class CriticalReference {
+  RestDensity,          // multiplier x the mean particle density of the first step
+  ParticleMassPerCell,  // multiplier x one particle's mass over a cell, m_p / h^d
+};
+enum class WallRule {
+  HoldGrid,       // grid velocity and force held at zero on and beyond the box walls
+  SlipGrid,       // ... only their component across the wall
+  ParticlesOnly,  // the literal text: only particles at the ground lose downward velocity
+};
+enum class FlipReference {
+  Rasterised,  // FLIP increment v^{n+1} - v^n from the velocity as rasterised (before step 4)
+  Equalised,   // ... from the velocity after the critical-density clamp of step 4
+};
+
+struct DensityHybridParams {
+  double flip_alpha = 0.95;          // PIC/FLIP blend: 0 pure PIC, 1 pure FLIP
+  double critical_multiplier = 4.0;  // critical density = multiplier x reference density
+  CriticalReference critical_reference = CriticalReference::ParticleMassPerCell;
+  WallRule walls = WallRule::HoldGrid;
+  FlipReference flip_reference = FlipReference::Rasterised;
+  KernelType kernel = KernelType::Cubic;
+};
+
+// MPM snow (Stomakhin et al. 2013): transfers, kernel, time integration, walls; docs/mpm.md.
+enum class MpmTransfer { PicFlip, Apic, Mls };
+enum class MpmIntegrator { Explicit, SemiImplicit };
+// V_p^0: the particle's share of its body's volume (spacing^D of the sampling lattice), or the
+// paper's estimate m_p / rho_p^0 with rho_p^0 rasterised to the grid (section 4 step 2), which
+// overestimates the volume of particles near a free surface (docs/mpm.md).
+enum class InitialVolume { Lattice, GridDensity };
+enum class ColliderType { Sticky, Slip, Separating };
+enum class ColliderShape { HalfSpace, Sphere, Box };
+
+struct MpmParams {
+  MpmTransfer transfer = MpmTransfer::Mls;
+  double flip_alpha = 0.95;  // PIC/FLIP blend (paper section 8: 0.95)
+  KernelType kernel = KernelType::Quadratic;
+  MpmIntegrator integrator = MpmIntegrator::Explicit;
+  double implicit_beta = 1;          // semi-implicit: 1 backward Euler, 0.5 trapezoidal, 0 explicit
+  double implicit_tolerance = 1e-5;  // semi-implicit: relative residual of the Krylov solve
+  int implicit_max_iterations = 200;  // semi-implicit: Krylov iteration cap per step
+  double cfl = 0.9;         // C of dt <= C h / (c + |v|max); the measured limit is 2.5-4x C = 0.5
+  bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
+  InitialVolume initial_volume = InitialVolume::Lattice;
+  ColliderType wall_type = ColliderType::Separating;  // the domain walls
+  double wall_friction = 0.2;
+};
+
+struct ColliderParams {
+  ColliderShape shape = ColliderShape::HalfSpace;
+  Vec3 position{};       // a point of the plane, the sphere's or box's centre (m)
+  Vec3 normal{0, 1, 0};  // half space: outward normal (the solid is behind it)
+  double radius = 0;     // sphere (m)
+  Vec3 size{};           // box extents (m)
+  Vec3 velocity{};       // the collider moves with this velocity (m/s)
+  ColliderType type = ColliderType::Separating;
+  double friction = 0.2;  // Coulomb coefficient
+};
+
+struct Body {
+  std::string name;
+  BodyShape shape = BodyShape::Ball;
+  Vec3 center{};                // ball and half ball centre, box centre (m)
+  double radius = 0;            // ball and half ball (m)
+  Vec3 size{};                  // box extents (m)
+  Vec3 cut_normal{0, 1, 0};     // half ball: keeps the points with (x - center) . n >= 0
+  Vec3 velocity{};              // initial velocity (m/s)
+  int particles_per_cell = 27;  // particles per cell of the scene's authored dimension
+  double density = 400;         // kg/m^3
+};
+
+struct Scene {
+  std::string file;  // where it was read from, for messages
+  std::string name;
+  std::string description;
+  int dimension = 2;           // the dimension the simulation runs in
+  int authored_dimension = 2;  // entries of grid.cells and of every vector in the file
+  std::array<int, 3> cells{10, 12, 1};
+  double cell_size = 0.01;
+  Vec3 gravity{0, -9.81, 0};
+  SolverType solver = SolverType::DensityHybrid;
+  DensityHybridParams density_hybrid;
+  MpmParams mpm;
+  SnowMaterial material;  // MPM snow; defaults are the paper's reference snow
+  std::vector<ColliderParams> colliders;
+  double dt = 0.001;      // time step (s)
+  double duration = 1.0;  // simulated time (s)
+  double fps = 50;        // frames written per simulated second
+  std::vector<Body> bodies;
+  nlohmann::json render = nlohmann::json::object();  // validated by render/
+
+  Vec3 extent() const;
+  int frameCount() const;  // frames after the initial one
+};
+
+// Applies "dotted.path=value" to a scene's JSON before it is validated; value is JSON when it
+// parses as JSON, else a string. Array elements are addressed by number: bodies.0.radius=0.01.
+void applyOverride(nlohmann::json& root, const std::string& assignment, const std::string& file);
+
+// Parses and validates; throws InputError naming the file and field.
+Scene parseScene(const nlohmann::json& root, const std::string& file);
+
+// Reads a scene file, applies the overrides, validates.
+Scene loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
+
+// Reads a JSON file; a syntax error names the file, line and column.
+nlohmann::json readJsonFile(const std::string& path);
+
+}  // namespace snowsim

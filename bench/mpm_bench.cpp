@@ -17,8 +17,8 @@
 #include <thread>
 #include <vector>
 
-#include "sim/scene/json_fields.h"
 #include "sim/mpm/mpm_solver.h"
+#include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
 
 using namespace snowsim;
@@ -62,8 +62,7 @@ using StageProfile = std::vector<std::vector<StageTime>>;
 template <int D>
 double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions,
            StageProfile* profile = nullptr, long* binnings = nullptr) {
-  omp_set_num_threads(threads);
-  MpmSolver<D> s(scene, sampleBodies<D>(scene));
+  MpmSolver<D> s(scene, sampleBodies<D>(scene), threads);
   const Real dt = 0.5 * s.cflTimeStep();
   s.profileStages(profile != nullptr);
   const auto t0 = std::chrono::steady_clock::now();
@@ -133,8 +132,7 @@ double sideBySideRate(const Scene& scene, int steps) {
   std::atomic<int> ready{0}, finished{0};
   std::array<double, 2> rate{};
   const auto solve = [&](int k) {
-    omp_set_num_threads(1);  // this thread's own setting: a solver without worker threads
-    MpmSolver<D> s(scene, sampleBodies<D>(scene));
+    MpmSolver<D> s(scene, sampleBodies<D>(scene), 1);  // a solver without worker threads
     const Real dt = 0.5 * s.cflTimeStep();
     ready.fetch_add(1);
     while (ready.load() < 2) {

@@ -1,11 +1,15 @@
-// What the time-stepping driver needs of a solver.
+// What the time-stepping driver needs of a solver, and the one clock of a run: a solver advances
+// its state, the base counts the steps and the simulated time and checks the state after each.
 #pragma once
 
+#include <algorithm>
 #include <limits>
 
+#include "sim/core/grid.h"
 #include "sim/core/krylov_result.h"
 #include "sim/core/particles.h"
 #include "sim/core/snapshot.h"
+#include "sim/scene/scene.h"
 
 namespace snowsim {
 
@@ -14,8 +18,28 @@ class Solver {
  public:
   virtual ~Solver() = default;
 
-  // Advances the state by dt seconds.
-  virtual void step(Real dt) = 0;
+  // Advances the state by dt seconds. Throws SimulationError (naming the step and the time, not
+  // the scene file: the caller adds it) when the state has diverged.
+  void step(Real dt) {
+    if (steps_ == 0) beforeFirstStep();
+    advance(dt);
+    ++steps_;
+    time_ += dt;
+    checkDivergence(dt);
+  }
+  // Steps of at most max_dt, and at most what stability allows, until the time reaches target;
+  // the last step is shortened to land on it.
+  void advanceTo(Real target, Real max_dt) {
+    while (target - time_ > 1e-9 * max_dt) {
+      Real dt = std::min(max_dt, stableTimeStep());
+      // Land exactly on the target instead of leaving a sliver for one more step.
+      if (target - time_ - dt < 1e-6 * dt) dt = target - time_;
+      step(dt);
+    }
+    time_ = std::max(time_, target);
+  }
+  long steps() const { return steps_; }
+  Real time() const { return time_; }
 
   // The largest time step the solver's stability allows now (infinity when it has no limit).
   virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
@@ -27,6 +51,30 @@ class Solver {
 
   // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
   virtual void describe(Snapshot& snapshot) const = 0;
+
+ protected:
+  virtual void beforeFirstStep() {}
+  virtual void advance(Real dt) = 0;
+  // Throws SimulationError when the state after a step of dt cannot go on.
+  virtual void checkDivergence(Real dt) const = 0;
+
+ private:
+  long steps_ = 0;
+  Real time_ = 0;
 };
+
+// The scene's grid and gravity in the simulation's dimension.
+template <int D>
+GridGeometry<D> sceneGrid(const Scene& scene) {
+  IVec<D> cells;
+  for (int a = 0; a < D; ++a) cells[a] = scene.cells[a];
+  return GridGeometry<D>(cells, scene.cell_size);
+}
+template <int D>
+Vec<D> sceneGravity(const Scene& scene) {
+  Vec<D> g;
+  for (int a = 0; a < D; ++a) g[a] = scene.gravity[a];
+  return g;
+}
 
 }  // namespace snowsim

@@ -93,4 +93,15 @@ struct GridFields {
   }
 };
 
+// The values a 2D snapshot shows at the nodes of the domain ((cells[0] + 1) x (cells[1] + 1), x
+// fastest): value(k) for each, by flat index k. None in 3D.
+template <int D, class F>
+void domainNodeValues(const GridGeometry<D>& grid, F&& value, std::vector<float>& out) {
+  out.clear();
+  if constexpr (D == 2)
+    for (int j = 0; j <= grid.cells[1]; ++j)
+      for (int i = 0; i <= grid.cells[0]; ++i)
+        out.push_back(static_cast<float>(value(grid.index(IVec<2>(i, j)))));
+}
+
 }  // namespace snowsim

@@ -1,5 +1,5 @@
-// What an iterative linear solve reports, and a run's tally of them: apart from sim/core/krylov.h so
-// that the solver and simulation interfaces report solves without pulling in Eigen.
+// What an iterative linear solve reports, and a run's tally of them: apart from sim/core/krylov.h
+// so that the solver and simulation interfaces report solves without pulling in Eigen.
 #pragma once
 
 #include <algorithm>

@@ -20,6 +20,14 @@ struct Particles {
   std::vector<int> id;        // index at creation: stable however the solver reorders them
 
   int size() const { return static_cast<int>(x.size()); }
+
+  // f(array) for every per-particle array: what a reordering must permute. A container that adds
+  // arrays extends this; tests check that it names every member.
+  template <class F>
+  void forEachArray(F&& f) {
+    f(x), f(v), f(mass), f(volume), f(density), f(body), f(id);
+  }
+
   // The positions in creation order, whatever order the particles are stored in.
   std::vector<Vec<D>> positionsById() const {
     std::vector<Vec<D>> by_id(x.size());

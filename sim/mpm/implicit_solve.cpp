@@ -1,9 +1,12 @@
 #include "sim/mpm/implicit_solve.h"
 
+#include <omp.h>
+
 #include <algorithm>
 
-#include "sim/mpm/stress_differential.h"
 #include "sim/core/stencil.h"
+#include "sim/mpm/stress_differential.h"
+#include "sim/mpm/transfer_scheme.h"
 
 namespace snowsim {
 
@@ -12,8 +15,9 @@ void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFi
                                        const Particles<D>& particles,
                                        const std::vector<Mat<D>>& F_E,
                                        const std::vector<Lame>& lame, const MpmParams& params,
-                                       Real dt) {
+                                       Real dt, int threads) {
   dt_ = dt;
+  threads_ = threads > 0 ? threads : omp_get_max_threads();
   const int nodes = grid.nodeCount();
   active_of_.assign(nodes, -1);
   active_.clear();
@@ -41,14 +45,13 @@ template <class Kernel>
 void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
                                            const Particles<D>& particles, const MpmParams& params) {
   const Real h = grid.h, inv_h = 1 / h;
-  // APIC/MLS D_p^{-1}: 4 / h^2 quadratic, 3 / h^2 cubic (Jiang et al. 2015).
-  const Real D_inv = (Kernel::support == 3 ? Real(4) : Real(3)) / (h * h);
+  const Real D_inv = inertiaInverse<Kernel>(h);
   const bool affine = params.transfer != MpmTransfer::PicFlip;
   const int n = particles.size();
   stencil_nodes_ = Stencil<D, Kernel>::nodes;
   stencil_.resize(static_cast<size_t>(n) * stencil_nodes_);
   gradient_.resize(stencil_.size());
-#pragma omp parallel for schedule(static) if (n >= 4096)  // threads pay off only for large scenes
+#pragma omp parallel for schedule(static) if (n >= 4096) num_threads(threads_)  // large scenes only
   for (int p = 0; p < n; ++p) {
     const Vec<D>& x = particles.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
@@ -68,7 +71,7 @@ void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen
   const int n = static_cast<int>(F_.size());
   const int S = stencil_nodes_;
   // Per particle (parallel, independent): dF_p = dt (sum_i u_i g_ip^T) F_E,p, then V_p^0 dP F^T.
-#pragma omp parallel for schedule(static) if (n >= 4096)  // threads pay off only for large scenes
+#pragma omp parallel for schedule(static) if (n >= 4096) num_threads(threads_)  // large scenes only
   for (int p = 0; p < n; ++p) {
     Mat<D> grad_u = Mat<D>::Zero();
     for (int nd = 0; nd < S; ++nd) {

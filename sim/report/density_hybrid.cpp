@@ -1,7 +1,10 @@
 #include "sim/report/density_hybrid.h"
 
 #include <cmath>
+#include <sstream>
 
+#include "sim/core/errors.h"
+#include "sim/core/pic_flip.h"
 #include "sim/core/stencil.h"
 
 namespace snowsim {
@@ -36,13 +39,10 @@ void equaliseTowardsPacked(const GridGeometry<D>& grid, const std::vector<Real>&
 
 template <int D>
 DensityHybridSolver<D>::DensityHybridSolver(const Scene& scene, Particles<D> particles)
-    : params_(scene.density_hybrid), particles_(std::move(particles)) {
-  IVec<D> cells;
-  for (int a = 0; a < D; ++a) {
-    cells[a] = scene.cells[a];
-    gravity_[a] = scene.gravity[a];
-  }
-  grid_ = GridGeometry<D>(cells, scene.cell_size);
+    : params_(scene.density_hybrid),
+      gravity_(sceneGravity<D>(scene)),
+      particles_(std::move(particles)),
+      grid_(sceneGrid<D>(scene)) {
   const int n = grid_.nodeCount();
   fields_.resize(n);
   node_density_.assign(n, 0);
@@ -51,10 +51,9 @@ DensityHybridSolver<D>::DensityHybridSolver(const Scene& scene, Particles<D> par
 }
 
 template <int D>
-void DensityHybridSolver<D>::step(Real dt) {
+void DensityHybridSolver<D>::advance(Real dt) {
   rasterise();
-  if (first_step_) computeParticleVolumes();
-  first_step_ = false;
+  if (this->steps() == 0) computeParticleVolumes();
   computeGridForces();
   holdWalls();
   if (params_.flip_reference == FlipReference::Rasterised) fields_.velocity_old = fields_.velocity;
@@ -167,7 +166,7 @@ void DensityHybridSolver<D>::updateParticleVelocities() {
         pic += w * fields_.velocity[i];
         increment += w * (fields_.velocity[i] - fields_.velocity_old[i]);
       });
-      particles_.v[p] = (1 - alpha) * pic + alpha * (particles_.v[p] + increment);
+      particles_.v[p] = picFlipBlend(particles_.v[p], pic, increment, alpha);
     }
   });
 }
@@ -207,12 +206,20 @@ void DensityHybridSolver<D>::describe(Snapshot& snapshot) const {
       snapshot.density[p] = static_cast<float>(rho);
     }
   });
-  snapshot.grid.node_density.clear();
-  if constexpr (D == 2) {
-    for (int j = 0; j <= grid_.cells[1]; ++j)
-      for (int i = 0; i <= grid_.cells[0]; ++i)
-        snapshot.grid.node_density.push_back(
-            static_cast<float>(node_density_[grid_.index(IVec<2>(i, j))]));
+  domainNodeValues(
+      grid_, [&](int k) { return node_density_[k]; }, snapshot.grid.node_density);
+}
+
+// A blown-up state is stopped where it happens, never written out.
+template <int D>
+void DensityHybridSolver<D>::checkDivergence(Real dt) const {
+  for (int i = 0; i < particles_.size(); ++i) {
+    if (particles_.x[i].allFinite() && particles_.v[i].allFinite()) continue;
+    std::ostringstream s;
+    s << "the simulation diverged at step " << this->steps() << " (t = " << this->time()
+      << " s): particle " << i << " has a non-finite position or velocity; try a smaller "
+      << "time.dt than " << dt;
+    throw SimulationError(s.str());
   }
 }
 

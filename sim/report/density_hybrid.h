@@ -30,7 +30,6 @@ class DensityHybridSolver final : public Solver<D> {
  public:
   DensityHybridSolver(const Scene& scene, Particles<D> particles);
 
-  void step(Real dt) override;
   const Particles<D>& particles() const override { return particles_; }
   void describe(Snapshot& snapshot) const override;
 
@@ -51,6 +50,8 @@ class DensityHybridSolver final : public Solver<D> {
   void advect(Real dt);                // 8. x += dt v, kept inside the box
 
  private:
+  void advance(Real dt) override;
+  void checkDivergence(Real dt) const override;
   bool isWallNode(const IVec<D>& i, int axis) const;
 
   DensityHybridParams params_;
@@ -62,7 +63,6 @@ class DensityHybridSolver final : public Solver<D> {
   std::vector<Vec<D>> scratch_;     // new values of step 4 (read old, write new)
   int slab_axis_ = -1;              // the extruded axis of a 2D scene run as a 3D slab, else -1
   Real critical_density_ = 0;
-  bool first_step_ = true;
 };
 
 }  // namespace snowsim

@@ -2,7 +2,6 @@
 #include "sim/mpm/mpm_solver.h"
 
 #include <gtest/gtest.h>
-#include <omp.h>
 
 #include <algorithm>
 
@@ -26,9 +25,9 @@ Json baseScene() {
 }
 
 template <int D>
-MpmSolver<D> makeSolver(const Json& j) {
+MpmSolver<D> makeSolver(const Json& j, int threads = 0) {
   const Scene scene = parseScene(j, "test.json");
-  return MpmSolver<D>(scene, sampleBodies<D>(scene));
+  return MpmSolver<D>(scene, sampleBodies<D>(scene), threads);
 }
 
 template <int D>
@@ -292,11 +291,11 @@ TEST(Mpm, TheGridKeepsNoMassWhereTheSnowWas) {
   EXPECT_NEAR(gridMass(), particle_mass, 1e-12 * particle_mass);
 }
 
-// 2D bins the particles anew once one has moved more than a cell (drift_cells, sim/mpm/mpm_solver.h)
-// beyond its row's cells, and not before. A ball translating along y, sampled 2 x 2 per cell (a
-// quarter and three quarters into each cell), must be binned anew each time it has moved 1 to
-// 1.5 cells since the last binning: 2 cells less how far into its row's last cell the particle
-// nearest the row's end sits. Allowing two cells, or none, would give 2-2.5 or 0-0.5.
+// 2D bins the particles anew once one has moved more than a cell (drift_cells,
+// sim/mpm/mpm_solver.h) beyond its row's cells, and not before. A ball translating along y, sampled
+// 2 x 2 per cell (a quarter and three quarters into each cell), must be binned anew each time it
+// has moved 1 to 1.5 cells since the last binning: 2 cells less how far into its row's last cell
+// the particle nearest the row's end sits. Allowing two cells, or none, would give 2-2.5 or 0-0.5.
 TEST(Mpm, ParticlesAreBinnedAnewOnceOneMovesMoreThanACellBeyondItsRow) {
   for (const double vy : {2.0, -2.0}) {
     Json j = baseScene();
@@ -343,8 +342,7 @@ TEST(Mpm, RowsHoldBetweenBinningsOnAnyThreadCount) {
   j["bodies"][0]["velocity"] = {2, 2.5};
   const int steps = 120;
   const auto runOn = [&](int threads) {
-    omp_set_num_threads(threads);
-    auto s = makeSolver<2>(j);
+    auto s = makeSolver<2>(j, threads);
     EXPECT_GT(s.particles().size(), 2048) << "the threaded path must run";
     Real particle_mass = 0;
     for (const Real m : s.particles().mass) particle_mass += m;
@@ -362,7 +360,6 @@ TEST(Mpm, RowsHoldBetweenBinningsOnAnyThreadCount) {
     return s.particles().positionsById();
   };
   const auto one = runOn(1), two = runOn(2);
-  omp_set_num_threads(omp_get_num_procs());
   EXPECT_TRUE(one == two) << "1 and 2 threads";
 }
 
@@ -481,16 +478,14 @@ TEST(Mpm, BadInputNamesTheField) {
 template <int D>
 void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) {
   auto runWith = [&](int threads, int then_threads) {
-    omp_set_num_threads(threads);
-    auto s = makeSolver<D>(j);
+    auto s = makeSolver<D>(j, threads);
     run(s, 0.002);
-    omp_set_num_threads(then_threads);
+    s.setThreads(then_threads);
     run(s, 0.002);
     return s.particles().positionsById();
   };
   const auto one = runWith(1, 1), again = runWith(1, 1), two = runWith(2, 2), three = runWith(3, 3),
              fewer = runWith(3, 2);
-  omp_set_num_threads(omp_get_num_procs());
   ASSERT_GT(one.size(), 2048u) << what << ": the threaded path must run";
   EXPECT_TRUE(one == again) << what << ", 1 thread twice";
   EXPECT_TRUE(one == two) << what << ", 2 threads";

@@ -1,14 +1,16 @@
-// Visual regression: each case of tests/golden/cases.txt is simulated and rendered by the snowsim
-// command line and compared with its golden image by `snowsim diff`. Tolerance (docs/rendering.md):
-// a pixel differs beyond a YIQ distance of 0.1, and at most 0.5% of the pixels may differ, which
-// covers the isolated pixels another CPU flips where spheres meet. On failure the rendered,
-// golden and diff images are left in the test's working directory and named in the message.
+// Visual regression: each case of tests/golden/cases.txt, a test of its own named after it, is
+// simulated and rendered by the snowsim command line and compared with its golden image by
+// `snowsim diff`. Tolerance (docs/rendering.md), the same for every case: a pixel differs beyond a
+// YIQ distance of 0.1, and at most 0.5% of the pixels may differ, which covers the isolated pixels
+// another CPU flips where spheres meet. On failure the rendered, golden and diff images are left
+// in the test's working directory and named in the message.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
 
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,11 @@ namespace fs = std::filesystem;
 struct GoldenCase {
   std::string name, scene, options;
 };
+
+// How GoogleTest shows a case's parameter: its name.
+void PrintTo(const GoldenCase& c, std::ostream* os) {
+  *os << c.name;
+}
 
 std::vector<GoldenCase> goldenCases() {
   std::ifstream in(std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/cases.txt");
@@ -37,28 +44,38 @@ int exitCode(const std::string& command) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-TEST(Golden, RenderedScenesMatchTheirGoldenImages) {
-  const std::vector<GoldenCase> cases = goldenCases();
-  ASSERT_EQ(cases.size(), 3u);
-  const std::string snowsim = SNOWSIM_BINARY;
-  for (const GoldenCase& c : cases) {
-    const fs::path dir = fs::current_path() / "golden_out" / c.name;
-    fs::remove_all(dir);
-    ASSERT_EQ(exitCode(snowsim + " run " + SNOWSIM_SOURCE_DIR + "/scenes/" + c.scene + ".json -o " +
-                       dir.string() + " --no-ply --no-mp4 " + c.options + " > /dev/null 2>&1"),
-              0)
-        << c.name;
-    const fs::path rendered = dir / "frame_00001.png", diff = dir / "diff.png";
-    const std::string golden = std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/" + c.name + ".png";
-    const int code = exitCode(snowsim + " diff " + rendered.string() + " " + golden +
-                              " --threshold 0.1 --max-share 0.005 --out " + diff.string() + " > " +
-                              (dir / "diff.txt").string() + " 2>&1");
-    std::ifstream summary(dir / "diff.txt");
-    const std::string text((std::istreambuf_iterator<char>(summary)), {});
-    EXPECT_EQ(code, 0) << c.name << ": " << text << "rendered " << rendered.string() << ", golden "
-                       << golden << ", diff " << diff.string();
-  }
+// The cases file lists the three cases; each is a test of its own below, named after it, so a
+// failing case hides none of the others.
+TEST(Golden, CasesFileListsThreeCases) {
+  ASSERT_EQ(goldenCases().size(), 3u);
 }
+
+class GoldenCaseTest : public testing::TestWithParam<GoldenCase> {};
+
+TEST_P(GoldenCaseTest, RenderedSceneMatchesItsGoldenImage) {
+  const GoldenCase& c = GetParam();
+  const std::string snowsim = SNOWSIM_BINARY;
+  const fs::path dir = fs::current_path() / "golden_out" / c.name;
+  fs::remove_all(dir);
+  ASSERT_EQ(exitCode(snowsim + " run " + SNOWSIM_SOURCE_DIR + "/scenes/" + c.scene + ".json -o " +
+                     dir.string() + " --no-ply --no-mp4 " + c.options + " > /dev/null 2>&1"),
+            0)
+      << c.name;
+  const fs::path rendered = dir / "frame_00001.png", diff = dir / "diff.png";
+  const std::string golden = std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/" + c.name + ".png";
+  const int code = exitCode(snowsim + " diff " + rendered.string() + " " + golden +
+                            " --threshold 0.1 --max-share 0.005 --out " + diff.string() + " > " +
+                            (dir / "diff.txt").string() + " 2>&1");
+  std::ifstream summary(dir / "diff.txt");
+  const std::string text((std::istreambuf_iterator<char>(summary)), {});
+  EXPECT_EQ(code, 0) << c.name << ": " << text << "rendered " << rendered.string() << ", golden "
+                     << golden << ", diff " << diff.string();
+}
+
+INSTANTIATE_TEST_SUITE_P(Golden, GoldenCaseTest, testing::ValuesIn(goldenCases()),
+                         [](const testing::TestParamInfo<GoldenCase>& info) {
+                           return info.param.name;
+                         });
 
 // The comparison is not blind: a golden against a different picture fails.
 TEST(Golden, ADifferentPictureFails) {

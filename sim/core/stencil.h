@@ -42,9 +42,9 @@ inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kern
   (visit(std::integral_constant<int, Node>{}), ...);
 }
 
-// Flattened: the per-node lambda and everything it calls are inlined into each unrolled node.
-// bench/mpm_bench, one core, medians of 5 interleaved runs: 2D 5.3 -> 5.6-6.1 M particle-steps/s,
-// 3D 0.93 -> 1.02 M; results bit-identical.
+// Flattened: the per-node lambda and everything it calls are inlined into each unrolled node, which
+// keeps the transfers' values in registers (bench/mpm_bench measures it). A callback that calls
+// much (a test's assertions) makes this slow to compile: collect the nodes first there.
 template <int D, class Kernel, class F>
 [[gnu::flatten]] inline void visitStencilFlattened(const GridGeometry<D>& grid,
                                                    const Stencil<D, Kernel>& s, const Vec<D>& x,

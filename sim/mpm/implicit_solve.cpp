@@ -1,7 +1,5 @@
 #include "sim/mpm/implicit_solve.h"
 
-#include <omp.h>
-
 #include <algorithm>
 
 #include "sim/core/stencil.h"
@@ -15,9 +13,9 @@ void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFi
                                        const Particles<D>& particles,
                                        const std::vector<Mat<D>>& F_E,
                                        const std::vector<Lame>& lame, const MpmParams& params,
-                                       Real dt, int threads) {
+                                       Real dt, LoopRunner* loops) {
   dt_ = dt;
-  threads_ = threads > 0 ? threads : omp_get_max_threads();
+  loops_ = loops;
   const int nodes = grid.nodeCount();
   active_of_.assign(nodes, -1);
   active_.clear();
@@ -51,8 +49,7 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
   stencil_nodes_ = Stencil<D, Kernel>::nodes;
   stencil_.resize(static_cast<size_t>(n) * stencil_nodes_);
   gradient_.resize(stencil_.size());
-#pragma omp parallel for schedule(static) if (n >= 4096) num_threads(threads_)  // large scenes only
-  for (int p = 0; p < n; ++p) {
+  parallelFor(loops_, n, [&](int p) {
     const Vec<D>& x = particles.x[p];
     const Stencil<D, Kernel> s(x, inv_h);
     size_t e = static_cast<size_t>(p) * stencil_nodes_;
@@ -62,7 +59,7 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
                             : Vec<D>(s.gradientAt(node.offset, inv_h));
       ++e;
     });
-  }
+  });
 }
 
 template <int D>
@@ -71,8 +68,7 @@ void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen
   const int n = static_cast<int>(F_.size());
   const int S = stencil_nodes_;
   // Per particle (parallel, independent): dF_p = dt (sum_i u_i g_ip^T) F_E,p, then V_p^0 dP F^T.
-#pragma omp parallel for schedule(static) if (n >= 4096) num_threads(threads_)  // large scenes only
-  for (int p = 0; p < n; ++p) {
+  parallelFor(loops_, n, [&](int p) {
     Mat<D> grad_u = Mat<D>::Zero();
     for (int nd = 0; nd < S; ++nd) {
       const size_t e = static_cast<size_t>(p) * S + nd;
@@ -83,7 +79,7 @@ void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen
     const Mat<D> dF = dt_ * grad_u * F_[p];
     stress_differential_[p] =
         volume_[p] * fixedCorotatedPiolaDifferential<D>(F_[p], lame_[p], dF) * F_[p].transpose();
-  }
+  });
   // y = M u - beta dt df, df_i = -sum_p (V dP F^T)_p g_ip; serial scatter keeps the sum order
   // fixed.
   const int active = activeNodes();

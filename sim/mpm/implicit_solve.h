@@ -11,6 +11,7 @@
 #include "sim/core/krylov.h"
 #include "sim/core/particles.h"
 #include "sim/mpm/snow_material.h"
+#include "sim/parallel/loop_runner.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
@@ -20,11 +21,12 @@ class ImplicitVelocitySolve {
  public:
   // Per-step setup: active nodes (mass > 0), each particle's stencil nodes and weight gradients,
   // F_E and Lamé parameters. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
-  // APIC/MLS, the same ones the explicit force and the F_E update use. threads: how many the
-  // operator may use on large scenes (0: the OpenMP default).
+  // APIC/MLS, the same ones the explicit force and the F_E update use. The per-particle loops of
+  // this step run on `loops` (none: on the calling thread).
   void prepare(const GridGeometry<D>& grid, const GridFields<D>& fields,
                const Particles<D>& particles, const std::vector<Mat<D>>& F_E,
-               const std::vector<Lame>& lame, const MpmParams& params, Real dt, int threads = 0);
+               const std::vector<Lame>& lame, const MpmParams& params, Real dt,
+               LoopRunner* loops = nullptr);
 
   // Replaces fields.velocity (v*, already collided) of the active nodes by the solution v^{n+1}.
   // node_free (per grid node) projects onto the velocity components the collisions left free
@@ -50,7 +52,7 @@ class ImplicitVelocitySolve {
                    const MpmParams& params);
 
   Real dt_ = 0;
-  int threads_ = 0;
+  LoopRunner* loops_ = nullptr;
   int stencil_nodes_ = 0;
   std::vector<int> active_;       // grid node index of each active node
   std::vector<int> active_of_;    // grid node -> active index, or -1

@@ -28,7 +28,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
   scatter(0);
   updateGridVelocities(0);  // the grid's mass, for the volumes
   withKernel(params_.kernel, [&]<class Kernel>() {
-    schedule_.parallelFor(particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
+    parallelFor(&schedule_, particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
   });
   measureParticles();
 }
@@ -171,7 +171,7 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
           collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
   });
   implicit_.prepare(grid_, fields_, particles_, particles_.F_E, particles_.lame, params_, dt,
-                    schedule_.threads());
+                    &schedule_);
   last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
                                 params_.implicit_tolerance, params_.implicit_max_iterations);
   solves_.add(last_solve_);

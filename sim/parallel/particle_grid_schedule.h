@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "sim/core/grid.h"
+#include "sim/parallel/loop_runner.h"
 #include "sim/parallel/row_binning.h"
 #include "sim/parallel/team.h"
 #include "sim/parallel/work_shares.h"
@@ -38,7 +39,7 @@ constexpr int tupleIndex(std::tuple<Ts...>*) {
 // P: the particle container, with positions x, forEachArray(f) over every per-particle array,
 // and SpareArrays, a tuple of one std::vector of each element type those arrays have.
 template <int D, class P>
-class ParticleGridSchedule {
+class ParticleGridSchedule final : public LoopRunner {
  public:
   using Binning = RowBinning<D>;
   static constexpr int drift_cells = Binning::drift_cells;
@@ -93,12 +94,11 @@ class ParticleGridSchedule {
   void scatterAlone(const std::vector<Vec<D>>& x, F&& f);
   void gridStageDone();
 
-  // f(k) for every node of the active box, f(p) for p < count: independent items, in parallel for
-  // large scenes.
+  // f(k) for every node of the active box: independent items, in parallel for large scenes, outside
+  // step(). The schedule is also the LoopRunner of other independent loops (parallelFor).
   template <class F>
-  void forActiveNodes(const GridGeometry<D>& grid, F&& f) const;
-  template <class F>
-  void parallelFor(int count, F&& f) const;
+  void forActiveNodes(const GridGeometry<D>& grid, F&& f);
+  void run(int count, void (*body)(void*, int, int), void* context) override;
 
   // How many times the particles were binned into rows. 2D: again whenever one had moved more
   // than drift_cells beyond its row's cells; 3D: every step.
@@ -256,18 +256,20 @@ void ParticleGridSchedule<D, P>::passOverParticles(std::string_view stage,
 
 template <int D, class P>
 template <class F>
-void ParticleGridSchedule<D, P>::forActiveNodes(const GridGeometry<D>& grid, F&& f) const {
+void ParticleGridSchedule<D, P>::forActiveNodes(const GridGeometry<D>& grid, F&& f) {
   const NodeBox<D>& active = binning_.active();
-  const int count = active.count();
-#pragma omp parallel for schedule(static) if (parallel_) num_threads(threads_)
-  for (int n = 0; n < count; ++n) f(active.flatIndex(grid, n));
+  parallelFor(this, active.count(), [&](int n) { f(active.flatIndex(grid, n)); });
 }
 
 template <int D, class P>
-template <class F>
-void ParticleGridSchedule<D, P>::parallelFor(int count, F&& f) const {
-#pragma omp parallel for schedule(static) if (parallel_) num_threads(threads_)
-  for (int i = 0; i < count; ++i) f(i);
+void ParticleGridSchedule<D, P>::run(int count, void (*body)(void*, int, int), void* context) {
+  prepare();
+  team_.forEachPart("parallel loop", [&](int part) {
+    const auto boundary = [&](int t) {
+      return static_cast<int>(static_cast<long>(count) * t / parts());
+    };
+    body(context, boundary(part), boundary(part + 1));
+  });
 }
 
 template <int D, class P>

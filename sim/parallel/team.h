@@ -1,8 +1,9 @@
-// The threads that share the stages of one MPM step. A stage is cut into parts, one per thread;
-// each part runs on one thread and the stages meet at barriers. The team keeps its own worker
-// threads, which wait for the next step spinning, then asleep. On this machine an empty OpenMP
-// parallel region costs 3.0-3.4 µs and an empty task of the team 0.35-0.73 µs, against a
-// two-thread explicit step of about 210 µs on the small 2D bench (bench/sync_bench).
+// The threads that share the stages of one MPM step: the solver's one concurrency model. A stage
+// is cut into parts, one per thread; each part runs on one thread and the stages meet at
+// barriers. The team keeps its own worker threads, which wait for the next stage spinning
+// briefly, then asleep. Plain OpenMP with its default waiting, which spins far longer, ran a
+// real scene several times slower on a machine shared with other work, and no faster on an idle
+// one (docs/performance.md, "Threads").
 #pragma once
 
 #include <atomic>
@@ -24,8 +25,7 @@ namespace snowsim {
 // std::atomic::wait), so that more threads than cores, or a busy machine, still make progress.
 // It counts its own sleepers rather than calling notify_all after every change: libstdc++ 12
 // files the sleepers of all 64-byte aligned atomics under one entry of its table, so one sleeping
-// thread anywhere made every notify_all a system call (1.7 µs instead of 0.35 per meeting in
-// bench/sync_bench).
+// thread anywhere would make every notify_all a system call (bench/sync_bench).
 class Signal {
  public:
   unsigned load() const { return value_.load(std::memory_order_acquire); }

@@ -18,6 +18,9 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
       gravity_(sceneGravity<D>(scene)),
       particles_(std::move(particles), scene.material),
       grid_(sceneGrid<D>(scene)),
+      inv_h_(1 / grid_.h),
+      inertia_inverse_(withKernel(params_.kernel,
+                                  [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); })),
       colliders_(makeColliders<D>(scene)),
       schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads) {
   fields_.resize(grid_.nodeCount());
@@ -80,7 +83,7 @@ void MpmSolver<D>::stepWith(Real dt) {
 template <int D>
 template <class Transfer, class Kernel>
 void MpmSolver<D>::scatterParticle(int p, PartialGrid& g, Real dt) const {
-  const Real inv_h = 1 / grid_.h;
+  const Real inv_h = inv_h_;
   const Vec<D>& x = particles_.x[p];
   const Real m = particles_.mass[p];
   const Vec<D> mv = m * particles_.v[p];
@@ -96,7 +99,7 @@ void MpmSolver<D>::scatterParticle(int p, PartialGrid& g, Real dt) const {
     // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
     // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), the mass and momentum
     // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
-    const Mat<D> A = m * particles_.C[p] + (dt * inertiaInverse<Kernel>(grid_.h)) * stress;
+    const Mat<D> A = m * particles_.C[p] + (dt * inertia_inverse_) * stress;
     TensorStencil<D, Kernel>(grid_, s, x)
         .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
           g.mass[k] += w * m;
@@ -187,7 +190,7 @@ void MpmSolver<D>::solveImplicitVelocities(Real dt) {
 template <int D>
 template <class Transfer, class Kernel>
 void MpmSolver<D>::gatherVelocity(int p) {
-  const Real inv_h = 1 / grid_.h;
+  const Real inv_h = inv_h_;
   const Vec<D> x = particles_.x[p];
   const Stencil<D, Kernel> s(x, inv_h);
   if constexpr (Transfer::affine) {
@@ -196,7 +199,7 @@ void MpmSolver<D>::gatherVelocity(int p) {
     Mat<D> B;
     particles_.v[p] =
         TensorStencil<D, Kernel>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
-    particles_.C[p] = inertiaInverse<Kernel>(grid_.h) * B;
+    particles_.C[p] = inertia_inverse_ * B;
   } else {
     Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
     Mat<D> grad_v = Mat<D>::Zero();

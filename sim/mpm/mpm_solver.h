@@ -115,6 +115,8 @@ class MpmSolver final : public Solver<D> {
   Vec<D> gravity_;
   MpmParticles<D> particles_;
   GridGeometry<D> grid_;
+  Real inv_h_;            // 1 / h
+  Real inertia_inverse_;  // D_p^-1 of APIC for the scene's kernel (transfer_scheme.h)
   GridFields<D> fields_;
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene

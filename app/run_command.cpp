@@ -70,8 +70,7 @@ void run(const RunOptions& options) {
   overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
   const Scene scene = loadScene(options.scene, overrides);
   // Every setting is checked before anything is written.
-  const RenderSettings render =
-      options.render.settings(renderSettingsFromScene(scene.render, scene.file));
+  const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
       (options.render.png || options.render.mp4))
     throw InputError("--color-by plastic: " + scene.file +

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <sstream>
 
 namespace snowsim {
@@ -19,6 +20,31 @@ int editDistance(const std::string& a, const std::string& b) {
     }
   }
   return row[b.size()];
+}
+
+Json readJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // Turn the byte offset into a line and column.
+    int line = 1, column = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n')
+        line++, column = 1;
+      else
+        column++;
+    }
+    std::string what = e.what();
+    const auto colon = what.find("syntax error");
+    throw InputError(
+        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
+        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  }
 }
 
 namespace {
@@ -57,6 +83,12 @@ bool JsonFields::has(const std::string& key) const {
   return object_.contains(key);
 }
 
+bool JsonFields::given(const std::string& key) {
+  if (std::find(known_.begin(), known_.end(), key) == known_.end()) known_.push_back(key);
+  read_.insert(key);
+  return has(key);
+}
+
 std::string JsonFields::fieldPath(const std::string& key) const {
   return path_.empty() ? key : path_ + "." + key;
 }
@@ -66,8 +98,7 @@ void JsonFields::fail(const std::string& key, const std::string& message) const 
 }
 
 const Json* JsonFields::lookup(const std::string& key, bool required) {
-  known_.push_back(key);
-  read_.insert(key);
+  given(key);
   auto it = object_.find(key);
   if (it == object_.end()) {
     if (!required) return nullptr;

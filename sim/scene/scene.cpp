@@ -1,7 +1,6 @@
 #include "sim/scene/scene.h"
 
 #include <cmath>
-#include <fstream>
 #include <sstream>
 
 #include "sim/scene/json_fields.h"
@@ -16,31 +15,10 @@ int Scene::frameCount() const {
   return static_cast<int>(std::lround(duration * fps));
 }
 
-Json readJsonFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the scene file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  try {
-    return Json::parse(text);
-  } catch (const Json::parse_error& e) {
-    // Turn the byte offset into a line and column.
-    int line = 1, column = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n')
-        line++, column = 1;
-      else
-        column++;
-    }
-    std::string what = e.what();
-    const auto colon = what.find("syntax error");
-    throw InputError(
-        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
-        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
-  }
-}
+namespace {
 
+// Sets the field at the assignment's dotted path; the value is JSON when it parses as JSON, else
+// a string.
 void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
@@ -76,8 +54,6 @@ void applyOverride(Json& root, const std::string& assignment, const std::string&
   }
   *node = value;
 }
-
-namespace {
 
 Vec3 toVec3(const std::vector<double>& v) {
   Vec3 r{0, 0, 0};
@@ -259,6 +235,35 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
   return b;
 }
 
+Vec3 point(JsonFields& f, const std::string& key, std::optional<std::vector<double>> fallback) {
+  return toVec3(f.numbers(key, fallback, {3}));
+}
+
+SceneRender parseRender(const Json* j, const std::string& file) {
+  SceneRender r;
+  if (!j) return r;
+  JsonFields f(*j, "render", file);
+  if (f.given("width")) r.width = f.integer("width", std::nullopt, 16, 8192);
+  if (f.given("height")) r.height = f.integer("height", std::nullopt, 16, 8192);
+  if (f.given("color_by"))
+    r.color_by = f.choice("color_by", {"white", "density", "speed", "plastic"}, std::nullopt);
+  if (f.given("sphere_radius")) r.sphere_radius = f.number("sphere_radius", std::nullopt, 0, 10);
+  if (f.given("grid")) r.grid = f.boolean("grid", std::nullopt);
+  if (f.given("density_cells")) r.density_cells = f.boolean("density_cells", std::nullopt);
+  if (const Json* camera = f.object("camera", false)) {
+    JsonFields c(*camera, "render.camera", file);
+    SceneCamera& view = r.camera.emplace();
+    view.eye = point(c, "eye", std::nullopt);
+    view.target = point(c, "target", std::nullopt);
+    view.up = point(c, "up", std::vector<double>{0, 1, 0});
+    if (c.given("fov")) view.fov = c.number("fov", std::nullopt, 0, 180, true, true);
+    if (view.eye == view.target) c.fail("target", "must differ from eye");
+    c.finish();
+  }
+  f.finish();
+  return r;
+}
+
 }  // namespace
 
 Scene parseScene(const Json& root, const std::string& file) {
@@ -316,7 +321,7 @@ Scene parseScene(const Json& root, const std::string& file) {
   for (size_t i = 0; i < bodies->size(); ++i)
     s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, default_ppc));
 
-  if (const Json* render = f.object("render", false)) s.render = *render;
+  s.render = parseRender(f.object("render", false), file);
   f.finish();
   return s;
 }

@@ -3,10 +3,9 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "sim/core/bspline.h"
 #include "sim/mpm/snow_material.h"
@@ -90,6 +89,25 @@ struct Body {
   double density = 400;         // kg/m^3
 };
 
+// A 3D camera of the `render` object: eye and target are required, the rest optional.
+struct SceneCamera {
+  Vec3 eye{};                 // m
+  Vec3 target{};              // m, differs from eye
+  Vec3 up{0, 1, 0};           // the image's up direction
+  std::optional<double> fov;  // vertical field of view, degrees in (0, 180)
+};
+
+// The scene's `render` object: how `snowsim run` draws it (docs/scene-format.md). A field left
+// out takes the renderer's default; render/scene_render.h turns this into RenderSettings.
+struct SceneRender {
+  std::optional<int> width, height;     // pixels, 16 to 8192
+  std::optional<std::string> color_by;  // "white", "density", "speed" or "plastic"
+  std::optional<double> sphere_radius;  // m in [0, 10]; 0: half the particle spacing
+  std::optional<bool> grid;             // draw the cell lines, walls and ground
+  std::optional<bool> density_cells;    // 2D: shade each cell by its density
+  std::optional<SceneCamera> camera;    // 3D; none: the default view of the whole domain
+};
+
 struct Scene {
   std::string file;  // where it was read from, for messages
   std::string name;
@@ -108,23 +126,15 @@ struct Scene {
   double duration = 1.0;  // simulated time (s)
   double fps = 50;        // frames written per simulated second
   std::vector<Body> bodies;
-  nlohmann::json render = nlohmann::json::object();  // validated by render/
+  SceneRender render;
 
   Vec3 extent() const;
   int frameCount() const;  // frames after the initial one
 };
 
-// Applies "dotted.path=value" to a scene's JSON before it is validated; value is JSON when it
-// parses as JSON, else a string. Array elements are addressed by number: bodies.0.radius=0.01.
-void applyOverride(nlohmann::json& root, const std::string& assignment, const std::string& file);
-
-// Parses and validates; throws InputError naming the file and field.
-Scene parseScene(const nlohmann::json& root, const std::string& file);
-
-// Reads a scene file, applies the overrides, validates.
+// Reads a scene file, applies the overrides, validates; throws InputError naming the file and
+// field. An override is "dotted.path=value" as given to --set, the value JSON when it parses as
+// JSON, else a string; array elements are addressed by number: bodies.0.radius=0.01.
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
-
-// Reads a JSON file; a syntax error names the file, line and column.
-nlohmann::json readJsonFile(const std::string& path);
 
 }  // namespace snowsim

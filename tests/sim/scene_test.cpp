@@ -10,6 +10,11 @@
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
 
+// The scene is plain structs: its header keeps the JSON library to itself.
+#ifdef NLOHMANN_JSON_VERSION_MAJOR
+#error "sim/scene/scene.h includes nlohmann/json"
+#endif
+
 namespace snowsim {
 namespace {
 
@@ -112,6 +117,43 @@ TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
   EXPECT_EQ(s.name, "renamed");
   const std::string message = errorOf(kMinimal, {"bodies.3.radius=0.01"});
   EXPECT_NE(message.find("no element 3 (the array has 1)"), std::string::npos) << message;
+}
+
+TEST(Scene, RenderObjectIsParsedWithTheScene) {
+  std::string text = kMinimal;
+  text.insert(text.rfind('}'), R"(, "render": {"width": 640, "color_by": "speed", "grid": false,
+    "camera": {"eye": [0.1, 0.3, 0.4], "target": [0.1, 0.05, 0.1], "fov": 50}})");
+  const Scene s = loadScene(writeTemp(text));
+  EXPECT_EQ(s.render.width, 640);
+  EXPECT_FALSE(s.render.height.has_value());
+  EXPECT_EQ(s.render.color_by, "speed");
+  EXPECT_EQ(s.render.grid, false);
+  EXPECT_FALSE(s.render.density_cells.has_value());
+  ASSERT_TRUE(s.render.camera.has_value());
+  EXPECT_DOUBLE_EQ(s.render.camera->eye[1], 0.3);
+  EXPECT_DOUBLE_EQ(s.render.camera->up[1], 1);
+  EXPECT_EQ(s.render.camera->fov, 50);
+  EXPECT_FALSE(loadScene(writeTemp(kMinimal)).render.camera.has_value());
+
+  EXPECT_NE(errorOf(kMinimal, {"render.widht=100"})
+                .find("render.widht: unknown field; did you mean \"width\"?"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.width=8"})
+                .find("render.width: 8 is out of range; allowed: 16 to 8192"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.color_by=temperature"})
+                .find(R"(render.color_by: "temperature" is not allowed; allowed: "white")"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1], "target": [1, 1, 1]})"})
+                .find("render.camera.target: must differ from eye"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1]})"})
+                .find("render.camera.target: missing"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1], "target": [0, 0, 0]})",
+                               "render.camera.fov=180"})
+                .find("render.camera.fov: 180 is out of range; allowed: (0, 180)"),
+            std::string::npos);
 }
 
 TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {

@@ -142,8 +142,8 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("-o,--out", options->out, "Output directory (created if missing)")
       ->capture_default_str();
   cmd->add_option("--set", options->overrides,
-                  "Override a scene field by its dotted path, e.g. --set time.dt=0.01 "
-                  "--set bodies.0.velocity=[1,0] (repeatable)");
+                  "Override a scene field by its path, e.g. --set time.dt=0.01 "
+                  "--set bodies.0.velocity=[1,0] or bodies[0].velocity=[1,0] (repeatable)");
   cmd->add_option("--quality", options->quality,
                   "draft | figure | reference: integrator, time step, particles per cell and "
                   "(MPM reference) cell size from the measured speed/accuracy front "

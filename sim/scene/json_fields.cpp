@@ -47,6 +47,23 @@ Json readJsonFile(const std::string& path) {
   }
 }
 
+std::string dottedPath(const std::string& path) {
+  std::string dotted;
+  for (char c : path) {
+    if (c == '[')
+      dotted += dotted.empty() ? "" : ".";
+    else if (c != ']')
+      dotted += c;
+  }
+  return dotted;
+}
+
+FieldError::FieldError(const std::string& file, const std::string& shown_path,
+                       const std::string& message)
+    : InputError(file + ": " + shown_path + ": " + message),
+      field(dottedPath(shown_path)),
+      problem(shown_path + ": " + message) {}
+
 namespace {
 
 std::string formatNumber(double x) {
@@ -75,8 +92,8 @@ std::string joinNames(const std::vector<std::string>& names) {
 JsonFields::JsonFields(const Json& object, std::string path, std::string file)
     : object_(object), path_(std::move(path)), file_(std::move(file)) {
   if (!object_.is_object())
-    throw InputError(file_ + ": " + (path_.empty() ? "the scene" : path_) +
-                     ": expected an object, found " + typeName(object_));
+    throw FieldError(file_, path_.empty() ? "the scene" : path_,
+                     "expected an object, found " + typeName(object_));
 }
 
 bool JsonFields::has(const std::string& key) const {
@@ -94,7 +111,7 @@ std::string JsonFields::fieldPath(const std::string& key) const {
 }
 
 void JsonFields::fail(const std::string& key, const std::string& message) const {
-  throw InputError(file_ + ": " + fieldPath(key) + ": " + message);
+  throw FieldError(file_, fieldPath(key), message);
 }
 
 const Json* JsonFields::lookup(const std::string& key, bool required) {

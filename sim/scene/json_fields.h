@@ -28,6 +28,17 @@ Json readJsonFile(const std::string& path);
 // InputError naming the file and field. For scene files: loadScene (sim/scene/scene.h).
 Scene parseScene(const Json& root, const std::string& file);
 
+// A bad field: what() names the file, the field and the problem; field is the dotted path
+// (bodies.0.radius), to find the --set assignment that wrote it.
+struct FieldError : InputError {
+  FieldError(const std::string& file, const std::string& shown_path, const std::string& problem);
+  std::string field;    // dotted: bodies.0.radius
+  std::string problem;  // what() without the file: "bodies[0].radius: must be positive; ..."
+};
+
+// The dotted form of a field path: "bodies[0].radius" gives "bodies.0.radius".
+std::string dottedPath(const std::string& path);
+
 // Levenshtein distance, for "did you mean" suggestions.
 int editDistance(const std::string& a, const std::string& b);
 

@@ -17,43 +17,72 @@ int Scene::frameCount() const {
 
 namespace {
 
-// Sets the field at the assignment's dotted path; the value is JSON when it parses as JSON, else
-// a string.
-void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
+// An override split at its first '=': the dotted path and the value's text.
+struct Assignment {
+  std::string path;  // dotted: bodies.0.radius
+  std::string value;
+};
+
+Assignment splitAssignment(const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
     throw InputError("--set " + assignment + ": expected key=value, e.g. time.dt=0.0005");
   const std::string path = assignment.substr(0, eq);
-  const std::string text = assignment.substr(eq + 1);
-  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (value.is_discarded()) value = text;
+  int depth = 0;
+  for (char c : path) {
+    depth += c == '[' ? 1 : c == ']' ? -1 : 0;
+    if (depth < 0 || depth > 1)
+      throw InputError("--set " + assignment + ": unbalanced brackets in " + path);
+  }
+  const std::string dotted = dottedPath(path);
+  if (depth != 0 || dotted.empty() || dotted.front() == '.' || dotted.back() == '.' ||
+      dotted.find("..") != std::string::npos)
+    throw InputError("--set " + assignment + ": " + path +
+                     " is not a field path; write e.g. bodies.0.radius or bodies[0].radius");
+  return {dotted, assignment.substr(eq + 1)};
+}
+
+// Sets the field at the assignment's path; the value is JSON when it parses as JSON, else a
+// string.
+void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
+  const Assignment a = splitAssignment(assignment);
+  Json value = Json::parse(a.value, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) value = a.value;
 
   Json* node = &root;
-  std::stringstream parts(path);
+  std::stringstream parts(a.path);
   std::string part, walked;
-  std::getline(parts, part, '.');
-  while (true) {
+  while (std::getline(parts, part, '.')) {
     walked += (walked.empty() ? "" : ".") + part;
-    std::string next;
-    const bool last = !std::getline(parts, next, '.');
     if (node->is_array()) {
       char* end = nullptr;
       const long k = std::strtol(part.c_str(), &end, 10);
       if (part.empty() || *end || k < 0 || k >= static_cast<long>(node->size()))
-        throw InputError(file + ": --set " + walked + ": no element " + part + " (the array has " +
-                         std::to_string(node->size()) + ")");
+        throw InputError("--set " + assignment + " on " + file + ": " + walked + ": no element " +
+                         part + " (the array has " + std::to_string(node->size()) + ")");
       node = &(*node)[k];
     } else if (node->is_object() || node->is_null()) {
       node = &(*node)[part];
     } else {
-      throw InputError(file + ": --set " + walked + ": cannot set a field inside a " +
-                       node->type_name());
+      throw InputError("--set " + assignment + " on " + file + ": " + walked +
+                       ": cannot set a field inside a " + node->type_name());
     }
-    if (last) break;
-    part = next;
   }
   *node = value;
 }
+
+// Whether one dotted path is the other or lies inside it.
+bool overlaps(const std::string& a, const std::string& b) {
+  const auto inside = [](const std::string& inner, const std::string& outer) {
+    return inner.size() > outer.size() && inner.compare(0, outer.size(), outer) == 0 &&
+           inner[outer.size()] == '.';
+  };
+  return a == b || inside(a, b) || inside(b, a);
+}
+
+}  // namespace
+
+namespace {
 
 Vec3 toVec3(const std::vector<double>& v) {
   Vec3 r{0, 0, 0};
@@ -179,16 +208,19 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   return c;
 }
 
-bool isPerfectPower(int n, int dim, int& root) {
-  for (root = 1; root <= n; ++root) {
-    const int p = dim == 2 ? root * root : root * root * root;
-    if (p == n) return true;
-    if (p > n) break;
+// "" when `count` particles per cell fill a lattice in the dimension, else what is wrong.
+std::string latticeProblem(int count, int dimension) {
+  for (int root = 1; root <= count; ++root) {
+    const int p = dimension == 2 ? root * root : root * root * root;
+    if (p == count) return "";
+    if (p > count) break;
   }
-  return false;
+  return std::to_string(count) + " is not a " + (dimension == 2 ? "square" : "cube") +
+         "; allowed: " + (dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ...");
 }
 
-Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
+// `scene_fields` reads the scene's top level: a default count that fills no lattice is its fault.
+Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& scene_fields) {
   const std::string path = "bodies[" + std::to_string(index) + "]";
   JsonFields f(j, path, scene.file);
   const std::vector<int> dims{scene.authored_dimension};
@@ -210,13 +242,11 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
     b.cut_normal = unitDirection(f, "cut_normal", cut);
   }
   b.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
-  b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);
-  int root;
-  if (!isPerfectPower(b.particles_per_cell, scene.authored_dimension, root))
-    f.fail("particles_per_cell",
-           std::to_string(b.particles_per_cell) + " is not a " +
-               (scene.authored_dimension == 2 ? "square" : "cube") + "; allowed: " +
-               (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ..."));
+  b.own_particles_per_cell = f.has("particles_per_cell");
+  b.particles_per_cell = f.integer("particles_per_cell", scene.particles_per_cell, 1, 1000);
+  if (const std::string problem = latticeProblem(b.particles_per_cell, scene.authored_dimension);
+      !problem.empty())
+    (b.own_particles_per_cell ? f : scene_fields).fail("particles_per_cell", problem);
   b.density = f.number("density", b.density, 0, 1e6, true);
   f.finish();
 
@@ -314,12 +344,12 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.fps = t.number("fps", 50, 0, 1e4, true);
   t.finish();
 
-  const int default_ppc =
+  s.particles_per_cell =
       f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
   const Json* bodies = f.array("bodies", true);
   if (bodies->empty()) f.fail("bodies", "needs at least one body");
   for (size_t i = 0; i < bodies->size(); ++i)
-    s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, default_ppc));
+    s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, f));
 
   s.render = parseRender(f.object("render", false), file);
   f.finish();
@@ -329,7 +359,15 @@ Scene parseScene(const Json& root, const std::string& file) {
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides) {
   Json root = readJsonFile(path);
   for (const std::string& o : overrides) applyOverride(root, o, path);
-  return parseScene(root, path);
+  try {
+    return parseScene(root, path);
+  } catch (const FieldError& e) {
+    // A field an override wrote: blame the last assignment to it, not the file.
+    for (auto o = overrides.rbegin(); o != overrides.rend(); ++o)
+      if (overlaps(splitAssignment(*o).path, e.field))
+        throw InputError("--set " + *o + " on " + path + ": " + e.problem);
+    throw;
+  }
 }
 
 }  // namespace snowsim

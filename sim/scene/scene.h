@@ -87,6 +87,8 @@ struct Body {
   Vec3 velocity{};              // initial velocity (m/s)
   int particles_per_cell = 27;  // particles per cell of the scene's authored dimension
   double density = 400;         // kg/m^3
+  // The body gives its particles_per_cell; else it has the scene's default.
+  bool own_particles_per_cell = false;
 };
 
 // A 3D camera of the `render` object: eye and target are required, the rest optional.
@@ -125,6 +127,8 @@ struct Scene {
   double dt = 0.001;      // time step (s)
   double duration = 1.0;  // simulated time (s)
   double fps = 50;        // frames written per simulated second
+  // The particles per cell of every body that gives none: 9 in 2D, 27 in 3D unless the file says.
+  int particles_per_cell = 9;
   std::vector<Body> bodies;
   SceneRender render;
 
@@ -132,9 +136,10 @@ struct Scene {
   int frameCount() const;  // frames after the initial one
 };
 
-// Reads a scene file, applies the overrides, validates; throws InputError naming the file and
-// field. An override is "dotted.path=value" as given to --set, the value JSON when it parses as
-// JSON, else a string; array elements are addressed by number: bodies.0.radius=0.01.
+// Reads a scene file, applies the overrides in order, then parses and validates it once. An
+// override is "path=value" as given to --set: the path dotted (bodies.0.radius) or with indices
+// (bodies[0].radius), the value JSON when it parses as JSON, else a string. Throws InputError
+// naming the file and field, and the --set assignment when the field is one it set.
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
 
 }  // namespace snowsim

@@ -118,6 +118,28 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
 }
 
+// A bad value given by --set is blamed on the assignment, which the user can find and fix.
+TEST(Cli, ErrorsOfSetNameTheAssignment) {
+  expectRejected("run " + scene("snowball_drop") + " --set mpm.cfl=-1",
+                 "--set mpm.cfl=-1 on " + scene("snowball_drop") +
+                     ": mpm.cfl: -1 is out of range; allowed: (0, 1]");
+  expectRejected("run " + scene("snowball_drop") + " --set 'bodies[0].raduis=0.01'",
+                 "--set bodies[0].raduis=0.01 on");
+}
+
+TEST(Cli, SetTakesArrayIndicesInBrackets) {
+  const fs::path out = freshDir("brackets");
+  const std::string run = "run " + scene("snowball_drop") + " -o " + out.string() +
+                          " --no-png --no-mp4 --set time.duration=0.02 ";
+  Result r = runSnowsim(run + "--set 'bodies[0].radius=0.02'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const int bigger = nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"];
+  r = runSnowsim(run + "--set bodies.0.radius=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"], bigger);
+  EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";
+}
+
 // What ffprobe reads of a video: codec, size, pixel format and the frames it decodes.
 struct Probe {
   std::string codec, pix_fmt;

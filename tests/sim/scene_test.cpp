@@ -119,6 +119,49 @@ TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
   EXPECT_NE(message.find("no element 3 (the array has 1)"), std::string::npos) << message;
 }
 
+TEST(Scene, OverridesTakeIndicesInBrackets) {
+  const Scene s =
+      loadScene(writeTemp(kMinimal), {"bodies[0].radius=0.02", "bodies[0].velocity=[1,2]"});
+  EXPECT_DOUBLE_EQ(s.bodies[0].radius, 0.02);
+  EXPECT_DOUBLE_EQ(s.bodies[0].velocity[1], 2);
+  EXPECT_NE(errorOf(kMinimal, {"bodies[3].radius=0.01"}).find("no element 3 (the array has 1)"),
+            std::string::npos);
+  for (const char* bad : {"bodies[0.radius=1", "bodies]0[.radius=1", "bodies..radius=1", ".dt=1"})
+    EXPECT_NE(errorOf(kMinimal, {bad}).find(std::string("--set ") + bad), std::string::npos) << bad;
+}
+
+// An invalid value set by --set is blamed on the assignment (the last one to the field, or to an
+// object holding it); a bad value in the file is blamed on the file alone.
+TEST(Scene, ErrorsOfAnOverrideNameTheAssignment) {
+  std::string message = errorOf(kMinimal, {"time.dt=-0.001"});
+  EXPECT_EQ(message.rfind("--set time.dt=-0.001 on ", 0), 0u) << message;
+  EXPECT_NE(message.find("time.dt: -0.001 is out of range; allowed: (0, 10]"), std::string::npos)
+      << message;
+
+  message = errorOf(kMinimal, {"time.dt=-1", "name=x", "time.dt=-2"});
+  EXPECT_NE(message.find("--set time.dt=-2 on"), std::string::npos) << message;
+  message = errorOf(kMinimal, {R"(time={"dt": -1})"});
+  EXPECT_NE(message.find(R"(--set time={"dt": -1} on)"), std::string::npos) << message;
+  message = errorOf(kMinimal, {"bodies[0].raduis=0.01"});
+  EXPECT_NE(message.find("--set bodies[0].raduis=0.01 on"), std::string::npos) << message;
+  EXPECT_NE(message.find("bodies[0].raduis: unknown field; did you mean \"radius\"?"),
+            std::string::npos)
+      << message;
+
+  std::string text = kMinimal;
+  text.replace(text.find("\"cell_size\": 0.01"), 17, "\"cell_size\": -1");
+  message = errorOf(text, {"time.dt=0.002"});
+  EXPECT_NE(message.find("grid.cell_size: -1 is out of range"), std::string::npos) << message;
+  EXPECT_EQ(message.find("--set"), std::string::npos) << message;
+}
+
+// A default particle count that fills no lattice is the top level's fault, not the body's.
+TEST(Scene, DefaultParticlesPerCellIsBlamedWhereItIsWritten) {
+  const std::string message = errorOf(kMinimal, {"particles_per_cell=8"});
+  EXPECT_NE(message.find(": particles_per_cell: 8 is not a square"), std::string::npos) << message;
+  EXPECT_EQ(message.find("bodies[0]"), std::string::npos) << message;
+}
+
 TEST(Scene, RenderObjectIsParsedWithTheScene) {
   std::string text = kMinimal;
   text.insert(text.rfind('}'), R"(, "render": {"width": 640, "color_by": "speed", "grid": false,

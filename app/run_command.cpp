@@ -63,12 +63,11 @@ class Progress {
 };
 
 void run(const RunOptions& options) {
-  // The quality level's settings (for the scene's solver and dimension) first, so the user's
-  // --set still wins.
-  std::vector<std::string> overrides =
-      qualityOverrides(options.quality, loadScene(options.scene, options.overrides));
-  overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
-  const Scene scene = loadScene(options.scene, overrides);
+  // Read and checked once, with the user's --set; the quality level (for the scene's solver and
+  // dimension) then leaves alone what --set gave.
+  checkQualityLevel(options.quality);
+  Scene scene = loadScene(options.scene, options.overrides);
+  applyQuality(options.quality, options.overrides, scene);
   // Every setting is checked before anything is written.
   const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -105,6 +104,7 @@ void run(const RunOptions& options) {
 
   nlohmann::json summary = {{"scene", scene.name},
                             {"dimension", scene.dimension},
+                            {"cell_size", scene.cell_size},
                             {"steps", simulation->steps()},
                             {"simulated_time", simulation->time()},
                             {"wall_time", wall},
@@ -153,7 +153,7 @@ void addRunCommand(CLI::App& app) {
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
-      "and run.json (steps, simulated time, wall time, particle count, dimension; for a "
+      "and run.json (steps, simulated time, wall time, particle count, dimension, cell size; for a "
       "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");

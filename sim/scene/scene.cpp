@@ -1,5 +1,6 @@
 #include "sim/scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -81,6 +82,11 @@ bool overlaps(const std::string& a, const std::string& b) {
 }
 
 }  // namespace
+
+bool overridesField(const std::vector<std::string>& overrides, const std::string& path) {
+  return std::any_of(overrides.begin(), overrides.end(),
+                     [&](const std::string& o) { return overlaps(splitAssignment(o).path, path); });
+}
 
 namespace {
 
@@ -368,6 +374,26 @@ Scene loadScene(const std::string& path, const std::vector<std::string>& overrid
         throw InputError("--set " + *o + " on " + path + ": " + e.problem);
     throw;
   }
+}
+
+void setParticlesPerCell(Scene& scene, int count) {
+  std::string problem = latticeProblem(count, scene.authored_dimension);
+  if (count < 1 || count > 1000)
+    problem = std::to_string(count) + " is out of range; allowed: 1 to 1000";
+  if (!problem.empty()) throw InputError(scene.file + ": particles_per_cell: " + problem);
+  scene.particles_per_cell = count;
+  for (Body& body : scene.bodies)
+    if (!body.own_particles_per_cell) body.particles_per_cell = count;
+}
+
+void refineGrid(Scene& scene, int factor) {
+  for (int a = 0; a < scene.authored_dimension; ++a)
+    if (factor < 1 || static_cast<long>(scene.cells[a]) * factor > 4096)
+      throw InputError(scene.file + ": grid.cells: " + std::to_string(factor) + " times " +
+                       std::to_string(scene.cells[a]) +
+                       " cells is out of range; allowed: 1 to 4096 along each axis");
+  for (int a = 0; a < scene.authored_dimension; ++a) scene.cells[a] *= factor;
+  scene.cell_size /= factor;
 }
 
 }  // namespace snowsim

@@ -142,4 +142,18 @@ struct Scene {
 // naming the file and field, and the --set assignment when the field is one it set.
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
 
+// True when one of the overrides sets the field at `path` (dotted), a field inside it or an
+// object holding it: what a program's own change to a scene must leave to the user.
+bool overridesField(const std::vector<std::string>& overrides, const std::string& path);
+
+// Typed changes to a parsed scene, for code that derives scenes from a scene (quality levels,
+// the study's configurations): numbers keep every digit, and the scene stays valid (InputError
+// naming the file and field otherwise).
+
+// Sets the scene's particles per cell: the default and every body that gives none.
+void setParticlesPerCell(Scene& scene, int count);
+
+// `factor` times the cells of every authored axis, cell size / factor: the same domain, finer.
+void refineGrid(Scene& scene, int factor);
+
 }  // namespace snowsim

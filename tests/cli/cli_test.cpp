@@ -1,7 +1,9 @@
 // The command line as a user meets it: exit codes, messages, and no half-written output.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -10,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -23,14 +26,19 @@ struct Result {
   std::string output;  // stdout and stderr together
 };
 
-Result runSnowsim(const std::string& args) {
-  const std::string command = std::string(SNOWSIM_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line, e.g. a snowsim binary with its arguments.
+Result runCommand(const std::string& command_line) {
+  const std::string command = command_line + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   std::string output;
   std::array<char, 4096> buffer;
   while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
   const int status = pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+Result runSnowsim(const std::string& args) {
+  return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
 }
 
 fs::path freshDir(const std::string& name) {
@@ -138,6 +146,27 @@ TEST(Cli, SetTakesArrayIndicesInBrackets) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"], bigger);
   EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";
+}
+
+// The scene file is read once, whatever the options: a named pipe, which can be read only once,
+// serves as the scene of a run at a quality level.
+TEST(Cli, RunReadsTheSceneOnce) {
+  const fs::path dir = freshDir("fifo");
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "scene.json";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  std::stringstream text;
+  text << std::ifstream(scene("snowball_drop")).rdbuf();
+  std::thread writer([&] { std::ofstream(fifo) << text.str(); });
+  const Result r = runCommand("timeout 60 " + std::string(SNOWSIM_BINARY) + " run " +
+                              fifo.string() + " -o " + (dir / "out").string() +
+                              " --quality draft --no-png --no-mp4 --set time.duration=0.02");
+  // Should snowsim not have opened the pipe, a reader lets the writer finish.
+  const int reader = open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  writer.join();
+  close(reader);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "out" / "run.json"));
 }
 
 // What ffprobe reads of a video: codec, size, pixel format and the frames it decodes.

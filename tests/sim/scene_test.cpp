@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -162,6 +163,19 @@ TEST(Scene, DefaultParticlesPerCellIsBlamedWhereItIsWritten) {
   EXPECT_EQ(message.find("bodies[0]"), std::string::npos) << message;
 }
 
+TEST(Scene, OverridesFieldSeesTheFieldItsParentsAndItsParts) {
+  const std::vector<std::string> set = {"grid.cell_size=0.005", "mpm={}", "bodies[0].radius=1",
+                                        "time.dt.x=1"};
+  EXPECT_TRUE(overridesField(set, "grid.cell_size"));
+  EXPECT_FALSE(overridesField(set, "grid.cells"));
+  EXPECT_FALSE(overridesField(set, "grid.cell"));
+  EXPECT_TRUE(overridesField(set, "mpm.cfl"));
+  EXPECT_TRUE(overridesField(set, "bodies.0.radius"));
+  EXPECT_FALSE(overridesField(set, "bodies.1.radius"));
+  EXPECT_TRUE(overridesField(set, "time.dt"));
+  EXPECT_FALSE(overridesField(set, "time.duration"));
+}
+
 TEST(Scene, RenderObjectIsParsedWithTheScene) {
   std::string text = kMinimal;
   text.insert(text.rfind('}'), R"(, "render": {"width": 640, "color_by": "speed", "grid": false,
@@ -197,6 +211,47 @@ TEST(Scene, RenderObjectIsParsedWithTheScene) {
                                "render.camera.fov=180"})
                 .find("render.camera.fov: 180 is out of range; allowed: (0, 180)"),
             std::string::npos);
+}
+
+// Typed changes keep every digit: a third of a centimetre halved is exactly half of it.
+TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
+  const double h = 0.01 / 3;
+  char cell_size[64];
+  std::snprintf(cell_size, sizeof cell_size, "grid.cell_size=%.17g", h);
+  Scene s = loadScene(writeTemp(kMinimal),
+                      {"grid.cells=[30,36]", cell_size, "dimension=3", "grid.depth_cells=2"});
+  ASSERT_EQ(s.cell_size, h);
+  const Vec3 extent = s.extent();
+  refineGrid(s, 2);
+  EXPECT_EQ(s.cell_size, h / 2);
+  EXPECT_EQ(s.cells[0], 60);
+  EXPECT_EQ(s.cells[1], 72);
+  EXPECT_EQ(s.cells[2], 2) << "a 2D scene's slab keeps its depth in cells";
+  EXPECT_EQ(s.extent()[0], extent[0]);
+  EXPECT_EQ(s.extent()[1], extent[1]);
+  EXPECT_THROW(refineGrid(s, 100), InputError);
+}
+
+TEST(Scene, ParticlesPerCellChangesTheBodiesWithoutTheirOwn) {
+  std::string text = kMinimal;
+  text.replace(text.find("}]"), 2,
+               R"(}, {"shape": "box", "center": [0.05, 0.02], "size": [0.02, 0.02],
+                       "particles_per_cell": 16}])");
+  Scene s = loadScene(writeTemp(text));
+  EXPECT_FALSE(s.bodies[0].own_particles_per_cell);
+  EXPECT_TRUE(s.bodies[1].own_particles_per_cell);
+  setParticlesPerCell(s, 4);
+  EXPECT_EQ(s.particles_per_cell, 4);
+  EXPECT_EQ(s.bodies[0].particles_per_cell, 4);
+  EXPECT_EQ(s.bodies[1].particles_per_cell, 16);
+  try {
+    setParticlesPerCell(s, 8);
+    ADD_FAILURE() << "8 fills no 2D lattice";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("particles_per_cell: 8 is not a square"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {

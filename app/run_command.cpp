@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
+#include "app/options.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
 #include "render/scene_render.h"
@@ -27,6 +28,7 @@ struct RunOptions {
   std::string out = "out";
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
+  int threads = 0;      // the solver's threads; 0: the OpenMP default
   bool ply = true;
   RenderOptions render;
 };
@@ -77,7 +79,7 @@ void run(const RunOptions& options) {
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
   prepareOutputDirectory(options.out);
-  auto simulation = makeSimulation(scene);
+  auto simulation = makeSimulation(scene, options.threads);
 
   FrameSinks sinks;
   if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
@@ -148,7 +150,8 @@ void addRunCommand(CLI::App& app) {
                   "draft | figure | reference: integrator, time step, particles per cell and "
                   "(MPM reference) cell size from the measured speed/accuracy front "
                   "(docs/study.md); --set overrides them");
-  cmd->add_flag("!--no-ply", options->ply, "Do not write the per-frame PLY files");
+  addThreadsOption(*cmd, options->threads);
+  addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/options.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/simulation.h"
@@ -26,6 +27,7 @@ struct StudyOptions {
   std::string preset = "full";
   std::string scenes = "scenes";
   std::string out = "docs/study/results.csv";
+  int threads = 0;  // the MPM solver's threads; 0: the OpenMP default
 };
 
 // One point of the sweep. refine halves the cell size and doubles the cells (same domain).
@@ -224,7 +226,7 @@ Outcome simulate(const StudyOptions& options, const Scene& base, const Config& c
   Outcome out;
   out.cell_size = scene.cell_size;
   const auto start = std::chrono::steady_clock::now();
-  auto simulation = makeSimulation(scene);
+  auto simulation = makeSimulation(scene, options.threads);
   out.particles = simulation->particleCount();
   try {
     for (int frame = 0; frame <= scene.frameCount(); ++frame) {
@@ -438,6 +440,7 @@ void addStudyCommand(CLI::App& app) {
                   "CSV file; rows already measured by this build "
                   "are kept and skipped")
       ->capture_default_str();
+  addThreadsOption(*cmd, options->threads);
   cmd->footer(
       "Each row: the configuration, wall time, steps, particles, errors against a reference run "
       "(density field, height profile, centre-of-mass path), the free-fall error, how far the "

@@ -148,6 +148,20 @@ TEST(Cli, SetTakesArrayIndicesInBrackets) {
   EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";
 }
 
+TEST(Cli, ThreadsMustBeAWholeNumberFrom1To1024) {
+  for (const char* bad : {"0", "abc", "1025", "-3", "2.5"})
+    expectRejected("run " + scene("snowball_drop") + " --threads " + bad,
+                   "allowed: a whole number from 1 to 1024");
+  const fs::path out = freshDir("threads");
+  const Result r = runSnowsim("run " + scene("mpm_reference") + " -o " + out.string() +
+                              " --no-png --no-mp4 --threads 1 --set time.duration=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "frame_00001.ply"));
+  const Result study = runSnowsim("study --quick --threads 0 -o " + (out / "s.csv").string());
+  EXPECT_EQ(study.code, 2) << study.output;
+  EXPECT_FALSE(fs::exists(out / "s.csv"));
+}
+
 // The scene file is read once, whatever the options: a named pipe, which can be read only once,
 // serves as the scene of a run at a quality level.
 TEST(Cli, RunReadsTheSceneOnce) {
@@ -272,6 +286,10 @@ TEST(Cli, HelpDescribesEachSubcommand) {
   EXPECT_EQ(run.code, 0);
   EXPECT_NE(run.output.find("--set"), std::string::npos);
   EXPECT_NE(run.output.find("Exit codes"), std::string::npos);
+  EXPECT_NE(run.output.find("--threads"), std::string::npos);
+  for (const char* flag : {"--no-ply", "--no-png", "--no-mp4"})
+    EXPECT_NE(run.output.find(std::string(flag) + "  "), std::string::npos) << flag;
+  EXPECT_EQ(run.output.find("{false}"), std::string::npos) << run.output;
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -181,6 +182,19 @@ TEST(Cli, RunReadsTheSceneOnce) {
   close(reader);
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(dir / "out" / "run.json"));
+}
+
+TEST(Cli, VersionNamesTheCommit) {
+  const Result r = runSnowsim("--version");
+  EXPECT_EQ(r.code, 0);
+  std::smatch m;
+  ASSERT_TRUE(
+      std::regex_search(r.output, m, std::regex(R"(^snowsim \d+\.\d+\S* \(commit (\S+)\))")))
+      << r.output;
+  if (fs::exists(fs::path(SNOWSIM_SOURCE_DIR) / ".git"))
+    EXPECT_TRUE(std::regex_match(m[1].str(), std::regex("[0-9a-f]{7,40}"))) << r.output;
+  else
+    EXPECT_EQ(m[1].str(), "unknown");
 }
 
 // What ffprobe reads of a video: codec, size, pixel format and the frames it decodes.

@@ -330,4 +330,46 @@ TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
   EXPECT_NE(unknown.output.find("allowed: fig1"), std::string::npos) << unknown.output;
 }
 
+// A one-row figure of the first 0.02 s of the snowball drop, in a scenes directory of its own.
+void writeTinyFigure(const fs::path& scenes) {
+  fs::create_directories(scenes);
+  fs::copy_file(scene("snowball_drop"), scenes / "snowball_drop.json");
+  std::ofstream(scenes / "figures.json")
+      << R"({"tiny": {"rows": [{"scene": "snowball_drop", "times": [0.02]}]}})";
+}
+
+// Without --figures: scenes/figures.json of the current directory, else the one beside the
+// binary (the build tree's, or a moved binary's), else an installation's.
+TEST(Cli, FigureFindsItsDescriptionsFromAnyDirectory) {
+  const fs::path dir = freshDir("figure_cwd");
+  fs::create_directories(dir / "elsewhere");
+  const std::string elsewhere = "cd " + (dir / "elsewhere").string() + " && ";
+  Result r = runCommand(elsewhere + SNOWSIM_BINARY + " figure fig9 -o out");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("allowed: fig1"), std::string::npos) << r.output;
+
+  writeTinyFigure(dir / "elsewhere" / "scenes");
+  r = runCommand(elsewhere + SNOWSIM_BINARY + " figure tiny -o out");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "elsewhere" / "out" / "tiny.png"));
+
+  // A moved binary with its scenes beside it, and an installation under a prefix.
+  for (const auto& [binary, scenes] :
+       {std::pair{dir / "moved" / "snowsim", dir / "moved" / "scenes"},
+        std::pair{dir / "prefix" / "bin" / "snowsim", dir / "prefix" / "share/snowsim/scenes"}}) {
+    fs::create_directories(binary.parent_path());
+    fs::copy_file(SNOWSIM_BINARY, binary);
+    const std::string run = "cd " + dir.string() + " && " + binary.string() + " figure tiny -o " +
+                            (binary.parent_path() / "out").string();
+    r = runCommand(run);
+    EXPECT_EQ(r.code, 2) << "no scenes yet: " << r.output;
+    EXPECT_NE(r.output.find("give their file with --figures"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(scenes.string()), std::string::npos) << r.output;
+    writeTinyFigure(scenes);
+    r = runCommand(run);
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(binary.parent_path() / "out" / "tiny.png")) << binary;
+  }
+}
+
 }  // namespace

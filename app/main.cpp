@@ -7,13 +7,14 @@
 #include "app/commands.h"
 #include "app/interrupt.h"
 #include "sim/core/errors.h"
+#include "version.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
       "snowsim: simulates snow (the report's density hybrid method and MPM snow) and "
       "renders it off-screen into PNG frames, MP4 videos and figure strips."};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "snowsim 0.1");
+  app.set_version_flag("--version", "snowsim " SNOWSIM_VERSION " (commit " SNOWSIM_COMMIT ")");
   snowsim::addRunCommand(app);
   snowsim::addRenderCommand(app);
   snowsim::addFigureCommand(app);

@@ -10,51 +10,79 @@ namespace snowsim {
 
 namespace {
 
+// The level's changes, each made unless the user's --set gave the field.
+class Changes {
+ public:
+  Changes(Scene& scene, const std::vector<std::string>& user) : scene(scene), user_(user) {}
+
+  bool free(const char* path) const { return !overridesField(user_, path); }
+  template <class T>
+  void set(const char* path, T& field, T value) {
+    if (free(path)) field = value;
+  }
+  void particlesPerCell(int count) {
+    if (free("particles_per_cell")) setParticlesPerCell(scene, count);
+  }
+
+  Scene& scene;
+
+ private:
+  const std::vector<std::string>& user_;
+};
+
 // The report's method: only its time step and particle count matter (a finer grid is a different
 // model for it, not a more accurate one). Study rows, drop / thrown ball:
-std::vector<std::string> densityHybrid(const std::string& level) {
+void densityHybrid(const std::string& level, Changes& c) {
   // draft: 2.7 / 5.6 ms, density-field error 0.68 / 0.75. dt 0.005 would halve the cost, but the
   // thrown ball then tunnels through the tower.
-  if (level == "draft") return {"time.dt=0.002", "particles_per_cell=9"};
   // figure: 6.9 / 17 ms, error 0.53 / 0.58.
-  if (level == "figure") return {"time.dt=0.001", "particles_per_cell=16"};
   // reference: 33 / 86 ms, error 0.27 / 0.52.
-  return {"time.dt=0.0002", "particles_per_cell=16"};
+  c.set("time.dt", c.scene.dt, level == "draft" ? 0.002 : level == "figure" ? 0.001 : 0.0002);
+  c.particlesPerCell(level == "draft" ? 9 : 16);
 }
 
 // MPM: explicit MLS at the adaptive CFL step. The semi-implicit solver is on the drop's front at
 // half the cell size but costs 4-10x more on the thrown ball (the tower's ground contact) and
 // 25-60x more in 3D (docs/study.md), so no level uses it.
-std::vector<std::string> mpm(const std::string& level, const Scene& scene) {
-  const bool two_d = scene.authored_dimension == 2;
-  std::vector<std::string> o = {"mpm.transfer=mls", "mpm.integrator=explicit",
-                                "mpm.adaptive_dt=true"};
+void mpm(const std::string& level, Changes& c) {
+  const bool two_d = c.scene.authored_dimension == 2;
+  c.set("mpm.transfer", c.scene.mpm.transfer, MpmTransfer::Mls);
+  c.set("mpm.integrator", c.scene.mpm.integrator, MpmIntegrator::Explicit);
+  c.set("mpm.adaptive_dt", c.scene.mpm.adaptive_dt, true);
   // draft: 4 per cell (8 in 3D). Drop / ball / smash: 18 / 25 / 1900 ms, error 0.80 / 0.71 / 0.75.
-  if (level == "draft") o.push_back(std::string("particles_per_cell=") + (two_d ? "4" : "8"));
+  if (level == "draft") c.particlesPerCell(two_d ? 4 : 8);
   // figure: 9 per cell (8 in 3D: 27 triples the cost for no measured gain): 23 / 58 ms in 2D,
   // error 0.64 / 0.48.
-  if (level == "figure") o.push_back(std::string("particles_per_cell=") + (two_d ? "9" : "8"));
+  if (level == "figure") c.particlesPerCell(two_d ? 9 : 8);
   if (level == "reference") {
     // reference: half the cell size, 9 per cell (27 in 3D), C = 0.5: 0.43 / 1.2 / 147 s, error
     // 0.23 / 0.27 in 2D (study rows at half the cell size, dt 1e-4).
-    o.push_back(std::string("particles_per_cell=") + (two_d ? "9" : "27"));
-    o.push_back("mpm.cfl=0.5");
-    o.push_back("grid.cell_size=" + std::to_string(scene.cell_size / 2));
-    std::string cells = "grid.cells=[";
-    for (int a = 0; a < scene.authored_dimension; ++a)
-      cells += (a ? "," : "") + std::to_string(2 * scene.cells[a]);
-    o.push_back(cells + "]");
+    c.particlesPerCell(two_d ? 9 : 27);
+    c.set("mpm.cfl", c.scene.mpm.cfl, 0.5);
+    if (c.free("grid.cells") && c.free("grid.cell_size")) refineGrid(c.scene, 2);
   }
-  return o;
 }
 
 }  // namespace
 
-std::vector<std::string> qualityOverrides(const std::string& level, const Scene& scene) {
-  if (level.empty()) return {};
-  if (level != "draft" && level != "figure" && level != "reference")
+void checkQualityLevel(const std::string& level) {
+  if (!level.empty() && level != "draft" && level != "figure" && level != "reference")
     throw InputError("--quality: unknown level '" + level + "'; allowed: draft, figure, reference");
-  return scene.solver == SolverType::Mpm ? mpm(level, scene) : densityHybrid(level);
+}
+
+void applyQuality(const std::string& level, const std::vector<std::string>& user_overrides,
+                  Scene& scene) {
+  checkQualityLevel(level);
+  if (level.empty()) return;
+  Changes changes(scene, user_overrides);
+  try {
+    if (scene.solver == SolverType::Mpm)
+      mpm(level, changes);
+    else
+      densityHybrid(level, changes);
+  } catch (const InputError& e) {
+    throw InputError("--quality " + level + ": " + e.what());
+  }
 }
 
 }  // namespace snowsim

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "app/options.h"
 #include "sim/core/errors.h"
 
 namespace snowsim {
@@ -27,8 +28,8 @@ void RenderOptions::addTo(CLI::App& command) {
       ->delimiter(',')
       ->expected(3);
   command.add_option("--fov", fov, "3D camera vertical field of view, degrees (default 35)");
-  command.add_flag("!--no-png", png, "Do not write the per-frame PNG images");
-  command.add_flag("!--no-mp4", mp4, "Do not encode the frames into an MP4 video");
+  addOffFlag(command, "--no-png", png, "Do not write the per-frame PNG images");
+  addOffFlag(command, "--no-mp4", mp4, "Do not encode the frames into an MP4 video");
   command.add_option("--mp4-fps", video_fps,
                      "Video frame rate (default: the scene's frames per second, real time)");
   command.add_option("--mp4-crf", video.crf, "Video quality, 0 (lossless) to 51 (worst)")

@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
+#include "app/options.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
 #include "render/scene_render.h"
@@ -27,6 +28,7 @@ struct RunOptions {
   std::string out = "out";
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
+  int threads = 0;      // the solver's threads; 0: the OpenMP default
   bool ply = true;
   RenderOptions render;
 };
@@ -63,15 +65,13 @@ class Progress {
 };
 
 void run(const RunOptions& options) {
-  // The quality level's settings (for the scene's solver and dimension) first, so the user's
-  // --set still wins.
-  std::vector<std::string> overrides =
-      qualityOverrides(options.quality, loadScene(options.scene, options.overrides));
-  overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
-  const Scene scene = loadScene(options.scene, overrides);
+  // Read and checked once, with the user's --set; the quality level (for the scene's solver and
+  // dimension) then leaves alone what --set gave.
+  checkQualityLevel(options.quality);
+  Scene scene = loadScene(options.scene, options.overrides);
+  applyQuality(options.quality, options.overrides, scene);
   // Every setting is checked before anything is written.
-  const RenderSettings render =
-      options.render.settings(renderSettingsFromScene(scene.render, scene.file));
+  const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
       (options.render.png || options.render.mp4))
     throw InputError("--color-by plastic: " + scene.file +
@@ -79,7 +79,7 @@ void run(const RunOptions& options) {
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
   prepareOutputDirectory(options.out);
-  auto simulation = makeSimulation(scene);
+  auto simulation = makeSimulation(scene, options.threads);
 
   FrameSinks sinks;
   if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
@@ -106,6 +106,7 @@ void run(const RunOptions& options) {
 
   nlohmann::json summary = {{"scene", scene.name},
                             {"dimension", scene.dimension},
+                            {"cell_size", scene.cell_size},
                             {"steps", simulation->steps()},
                             {"simulated_time", simulation->time()},
                             {"wall_time", wall},
@@ -143,18 +144,19 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("-o,--out", options->out, "Output directory (created if missing)")
       ->capture_default_str();
   cmd->add_option("--set", options->overrides,
-                  "Override a scene field by its dotted path, e.g. --set time.dt=0.01 "
-                  "--set bodies.0.velocity=[1,0] (repeatable)");
+                  "Override a scene field by its path, e.g. --set time.dt=0.01 "
+                  "--set bodies.0.velocity=[1,0] or bodies[0].velocity=[1,0] (repeatable)");
   cmd->add_option("--quality", options->quality,
                   "draft | figure | reference: integrator, time step, particles per cell and "
                   "(MPM reference) cell size from the measured speed/accuracy front "
                   "(docs/study.md); --set overrides them");
-  cmd->add_flag("!--no-ply", options->ply, "Do not write the per-frame PLY files");
+  addThreadsOption(*cmd, options->threads);
+  addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
-      "and run.json (steps, simulated time, wall time, particle count, dimension; for a "
+      "and run.json (steps, simulated time, wall time, particle count, dimension, cell size; for a "
       "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");

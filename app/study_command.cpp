@@ -13,10 +13,11 @@
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/options.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
-#include "study/metrics.h"
 #include "sim/simulation.h"
+#include "study/metrics.h"
 
 namespace snowsim {
 
@@ -26,12 +27,13 @@ struct StudyOptions {
   std::string preset = "full";
   std::string scenes = "scenes";
   std::string out = "docs/study/results.csv";
+  int threads = 0;  // the MPM solver's threads; 0: the OpenMP default
 };
 
 // One point of the sweep. refine halves the cell size and doubles the cells (same domain).
 struct Config {
   std::string scene;                      // file stem in the scenes directory
-  std::string solver = "density_hybrid";  // a label of solverOverrides()
+  std::string solver = "density_hybrid";  // a label of applySolver()
   double dt = 0.001;
   int refine = 1;
   int particles_per_cell = 9;
@@ -53,21 +55,28 @@ struct Sweep {
 
 // The solvers and integrators the study compares. MPM runs at the fixed dt of the sweep (no
 // adaptive step), so the study sees where each integrator breaks.
-std::vector<std::string> solverOverrides(const std::string& label) {
-  if (label == "density_hybrid") return {"solver=density_hybrid"};
-  const std::vector<std::string> mpm = {"solver=mpm", "mpm.adaptive_dt=false"};
-  auto with = [&](std::vector<std::string> extra) {
-    extra.insert(extra.begin(), mpm.begin(), mpm.end());
-    return extra;
-  };
-  if (label == "mpm_pic_flip") return with({"mpm.transfer=pic_flip"});
-  if (label == "mpm_apic") return with({"mpm.transfer=apic"});
-  if (label == "mpm_mls") return with({"mpm.transfer=mls"});
-  if (label == "mpm_apic_semi") return with({"mpm.transfer=apic", "mpm.integrator=semi_implicit"});
-  if (label == "mpm_mls_semi") return with({"mpm.transfer=mls", "mpm.integrator=semi_implicit"});
+void applySolver(const std::string& label, Scene& scene) {
+  if (label == "density_hybrid") {
+    scene.solver = SolverType::DensityHybrid;
+    return;
+  }
+  scene.solver = SolverType::Mpm;
   // The reference: APIC with the adaptive CFL step, capped by the given dt.
-  if (label == "reference_mpm_apic") return {"solver=mpm", "mpm.transfer=apic"};
-  throw InputError("study: unknown solver label '" + label + "'");
+  if (label == "reference_mpm_apic") {
+    scene.mpm.transfer = MpmTransfer::Apic;
+    return;
+  }
+  scene.mpm.adaptive_dt = false;
+  const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
+  if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
+  if (label == "mpm_pic_flip")
+    scene.mpm.transfer = MpmTransfer::PicFlip;
+  else if (label == "mpm_apic" || label == "mpm_apic_semi")
+    scene.mpm.transfer = MpmTransfer::Apic;
+  else if (label == "mpm_mls" || label == "mpm_mls_semi")
+    scene.mpm.transfer = MpmTransfer::Mls;
+  else
+    throw InputError("study: unknown solver label '" + label + "'");
 }
 
 const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip",  "mpm_apic",
@@ -180,30 +189,44 @@ struct Outcome {
   Frames frames;
 };
 
-Outcome simulate(const StudyOptions& options, const Config& c) {
-  const std::string path = options.scenes + "/" + c.scene + ".json";
-  Scene base = loadScene(path);
-  std::vector<std::string> overrides = solverOverrides(c.solver);
+// The scene files of a study, each read and parsed once.
+class Scenes {
+ public:
+  explicit Scenes(std::string dir) : dir_(std::move(dir)) {}
+  const Scene& operator[](const std::string& name) {
+    auto it = scenes_.find(name);
+    if (it == scenes_.end())
+      it = scenes_.emplace(name, loadScene(dir_ + "/" + name + ".json")).first;
+    return it->second;
+  }
+
+ private:
+  std::string dir_;
+  std::map<std::string, Scene> scenes_;
+};
+
+// The scene file with the configuration's settings.
+Scene configured(const Scene& base, const Config& c) {
+  Scene scene = base;
+  applySolver(c.solver, scene);
+  scene.dt = c.dt;
+  scene.duration = c.duration;
   // Frames no closer than dt: the driver never steps past a frame, so a step larger than the
   // frame interval would silently shrink to it.
-  const double fps = std::min(base.fps, 1 / c.dt);
-  for (const std::string& o :
-       {"time.dt=" + format(c.dt), "time.duration=" + format(c.duration), "time.fps=" + format(fps),
-        "particles_per_cell=" +
-            std::to_string(particlesPerCell(c.particles_per_cell, base.authored_dimension)),
-        "grid.cell_size=" + format(base.cell_size / c.refine)})
-    overrides.push_back(o);
-  if (c.E0 > 0) overrides.push_back("material.E0=" + format(c.E0));
-  std::string cells = "grid.cells=[";
-  for (int k = 0; k < base.authored_dimension; ++k)
-    cells += (k ? "," : "") + std::to_string(base.cells[k] * c.refine);
-  overrides.push_back(cells + "]");
-  const Scene scene = loadScene(path, overrides);
+  scene.fps = std::min(base.fps, 1 / c.dt);
+  setParticlesPerCell(scene, particlesPerCell(c.particles_per_cell, base.authored_dimension));
+  refineGrid(scene, c.refine);
+  if (c.E0 > 0) scene.material.E0 = c.E0;
+  return scene;
+}
+
+Outcome simulate(const StudyOptions& options, const Scene& base, const Config& c) {
+  const Scene scene = configured(base, c);
 
   Outcome out;
   out.cell_size = scene.cell_size;
   const auto start = std::chrono::steady_clock::now();
-  auto simulation = makeSimulation(scene);
+  auto simulation = makeSimulation(scene, options.threads);
   out.particles = simulation->particleCount();
   try {
     for (int frame = 0; frame <= scene.frameCount(); ++frame) {
@@ -244,8 +267,7 @@ std::pair<Frames, Frames> atCommonTimes(const Frames& run, const Frames& referen
 
 // The tower's left edge in a thrown-ball scene (a body named "column" and one named "ball");
 // -1 for any other scene.
-double towerLeftEdge(const StudyOptions& options, const std::string& scene_name) {
-  const Scene scene = loadScene(options.scenes + "/" + scene_name + ".json");
+double towerLeftEdge(const Scene& scene) {
   double edge = -1;
   bool ball = false;
   for (const Body& b : scene.bodies) {
@@ -310,7 +332,7 @@ std::string csvField(std::string text) {
 // Runs the configurations of one sweep that this build has not measured yet, appending a CSV
 // row per run; returns how many it ran and adds to `skipped` those already measured.
 int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string& build,
-             const std::set<std::string>& done, std::ofstream& csv, int& skipped) {
+             const std::set<std::string>& done, Scenes& scenes, std::ofstream& csv, int& skipped) {
   int measured = 0;
   PileClaim pile_claim;
   for (const std::string& scene : sweep.scenes) {
@@ -329,24 +351,24 @@ int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string&
             }
     if (todo.empty()) continue;
 
+    const Scene& base = scenes[scene];
     Outcome reference;
     if (sweep.errors) {
       const Config ref_config = referenceFor(scene, sweep);
       std::fprintf(stderr, "study: %s reference (%s, dt <= %s, cell/%d, %d per cell)\n",
                    scene.c_str(), ref_config.solver.c_str(), format(ref_config.dt).c_str(),
                    ref_config.refine, ref_config.particles_per_cell);
-      reference = simulate(options, ref_config);
+      reference = simulate(options, base, ref_config);
       if (reference.status != "finished")
         throw SimulationError("study: the reference run of " + scene + " " + reference.status +
                               ": " + reference.message);
     }
-    const Scene base = loadScene(options.scenes + "/" + scene + ".json");
     const Vec3 extent = base.extent();
     const FieldGrid field{base.dimension, {extent[0], extent[1], extent[2]}, 64};
-    const double tower = towerLeftEdge(options, scene);
+    const double tower = towerLeftEdge(base);
 
     for (const Config& c : todo) {
-      const Outcome run = simulate(options, c);
+      const Outcome run = simulate(options, base, c);
       std::string errors = ",,,,";
       std::string past_tower, pile_height, claim;
       std::string status = run.status;
@@ -394,8 +416,9 @@ void study(const StudyOptions& options) {
   if (!existed) csv << kHeader << "\n";
 
   int measured = 0, skipped = 0;
+  Scenes scenes(options.scenes);
   for (const Sweep& sweep : presetNamed(options.preset))
-    measured += runSweep(options, sweep, build, done, csv, skipped);
+    measured += runSweep(options, sweep, build, done, scenes, csv, skipped);
 
   std::printf("study: %d runs measured, %d already measured for build %s; results in %s\n",
               measured, skipped, build.c_str(), options.out.c_str());
@@ -417,6 +440,7 @@ void addStudyCommand(CLI::App& app) {
                   "CSV file; rows already measured by this build "
                   "are kept and skipped")
       ->capture_default_str();
+  addThreadsOption(*cmd, options->threads);
   cmd->footer(
       "Each row: the configuration, wall time, steps, particles, errors against a reference run "
       "(density field, height profile, centre-of-mass path), the free-fall error, how far the "

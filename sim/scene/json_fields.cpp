@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <sstream>
 
 namespace snowsim {
@@ -20,6 +21,48 @@ int editDistance(const std::string& a, const std::string& b) {
   }
   return row[b.size()];
 }
+
+Json readJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // Turn the byte offset into a line and column.
+    int line = 1, column = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n')
+        line++, column = 1;
+      else
+        column++;
+    }
+    std::string what = e.what();
+    const auto colon = what.find("syntax error");
+    throw InputError(
+        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
+        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  }
+}
+
+std::string dottedPath(const std::string& path) {
+  std::string dotted;
+  for (char c : path) {
+    if (c == '[')
+      dotted += dotted.empty() ? "" : ".";
+    else if (c != ']')
+      dotted += c;
+  }
+  return dotted;
+}
+
+FieldError::FieldError(const std::string& file, const std::string& shown_path,
+                       const std::string& message)
+    : InputError(file + ": " + shown_path + ": " + message),
+      field(dottedPath(shown_path)),
+      problem(shown_path + ": " + message) {}
 
 namespace {
 
@@ -49,12 +92,18 @@ std::string joinNames(const std::vector<std::string>& names) {
 JsonFields::JsonFields(const Json& object, std::string path, std::string file)
     : object_(object), path_(std::move(path)), file_(std::move(file)) {
   if (!object_.is_object())
-    throw InputError(file_ + ": " + (path_.empty() ? "the scene" : path_) +
-                     ": expected an object, found " + typeName(object_));
+    throw FieldError(file_, path_.empty() ? "the scene" : path_,
+                     "expected an object, found " + typeName(object_));
 }
 
 bool JsonFields::has(const std::string& key) const {
   return object_.contains(key);
+}
+
+bool JsonFields::given(const std::string& key) {
+  if (std::find(known_.begin(), known_.end(), key) == known_.end()) known_.push_back(key);
+  read_.insert(key);
+  return has(key);
 }
 
 std::string JsonFields::fieldPath(const std::string& key) const {
@@ -62,12 +111,11 @@ std::string JsonFields::fieldPath(const std::string& key) const {
 }
 
 void JsonFields::fail(const std::string& key, const std::string& message) const {
-  throw InputError(file_ + ": " + fieldPath(key) + ": " + message);
+  throw FieldError(file_, fieldPath(key), message);
 }
 
 const Json* JsonFields::lookup(const std::string& key, bool required) {
-  known_.push_back(key);
-  read_.insert(key);
+  given(key);
   auto it = object_.find(key);
   if (it == object_.end()) {
     if (!required) return nullptr;

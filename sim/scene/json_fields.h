@@ -1,6 +1,7 @@
-// Reading one JSON object of a scene file field by field, with the checks and messages users need:
-// the file, the field's path, what was wrong and what is allowed. Every key of the object must be
-// read, or finish() names the unknown one and the closest valid name.
+// The JSON side of scene files, kept out of sim/scene/scene.h: reading a JSON file, parsing a
+// scene built as JSON in code, and reading one JSON object field by field with the checks and
+// messages users need: the file, the field's path, what was wrong and what is allowed. Every key
+// of the object must be read, or finish() names the unknown one and the closest valid name.
 #pragma once
 
 #include <array>
@@ -18,6 +19,26 @@ namespace snowsim {
 
 using Json = nlohmann::json;
 
+struct Scene;
+
+// Reads a JSON file; a syntax error names the file, line and column.
+Json readJsonFile(const std::string& path);
+
+// Parses and validates a scene given as JSON (tests and benchmarks build theirs in code); throws
+// InputError naming the file and field. For scene files: loadScene (sim/scene/scene.h).
+Scene parseScene(const Json& root, const std::string& file);
+
+// A bad field: what() names the file, the field and the problem; field is the dotted path
+// (bodies.0.radius), to find the --set assignment that wrote it.
+struct FieldError : InputError {
+  FieldError(const std::string& file, const std::string& shown_path, const std::string& problem);
+  std::string field;    // dotted: bodies.0.radius
+  std::string problem;  // what() without the file: "bodies[0].radius: must be positive; ..."
+};
+
+// The dotted form of a field path: "bodies[0].radius" gives "bodies.0.radius".
+std::string dottedPath(const std::string& path);
+
 // Levenshtein distance, for "did you mean" suggestions.
 int editDistance(const std::string& a, const std::string& b);
 
@@ -26,6 +47,8 @@ class JsonFields {
   JsonFields(const Json& object, std::string path, std::string file);
 
   bool has(const std::string& key) const;
+  // Whether an optional field is given; either way it is a known field of the object.
+  bool given(const std::string& key);
   const std::string& path() const { return path_; }
   std::string fieldPath(const std::string& key) const;
 

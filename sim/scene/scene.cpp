@@ -1,7 +1,7 @@
 #include "sim/scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 
 #include "sim/scene/json_fields.h"
@@ -16,65 +16,76 @@ int Scene::frameCount() const {
   return static_cast<int>(std::lround(duration * fps));
 }
 
-Json readJsonFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the scene file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  try {
-    return Json::parse(text);
-  } catch (const Json::parse_error& e) {
-    // Turn the byte offset into a line and column.
-    int line = 1, column = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n')
-        line++, column = 1;
-      else
-        column++;
-    }
-    std::string what = e.what();
-    const auto colon = what.find("syntax error");
-    throw InputError(
-        path + ":" + std::to_string(line) + ":" + std::to_string(column) +
-        ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
-  }
-}
+namespace {
 
-void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
+// An override split at its first '=': the dotted path and the value's text.
+struct Assignment {
+  std::string path;  // dotted: bodies.0.radius
+  std::string value;
+};
+
+Assignment splitAssignment(const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
     throw InputError("--set " + assignment + ": expected key=value, e.g. time.dt=0.0005");
   const std::string path = assignment.substr(0, eq);
-  const std::string text = assignment.substr(eq + 1);
-  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (value.is_discarded()) value = text;
+  int depth = 0;
+  for (char c : path) {
+    depth += c == '[' ? 1 : c == ']' ? -1 : 0;
+    if (depth < 0 || depth > 1)
+      throw InputError("--set " + assignment + ": unbalanced brackets in " + path);
+  }
+  const std::string dotted = dottedPath(path);
+  if (depth != 0 || dotted.empty() || dotted.front() == '.' || dotted.back() == '.' ||
+      dotted.find("..") != std::string::npos)
+    throw InputError("--set " + assignment + ": " + path +
+                     " is not a field path; write e.g. bodies.0.radius or bodies[0].radius");
+  return {dotted, assignment.substr(eq + 1)};
+}
+
+// Sets the field at the assignment's path; the value is JSON when it parses as JSON, else a
+// string.
+void applyOverride(Json& root, const std::string& assignment, const std::string& file) {
+  const Assignment a = splitAssignment(assignment);
+  Json value = Json::parse(a.value, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) value = a.value;
 
   Json* node = &root;
-  std::stringstream parts(path);
+  std::stringstream parts(a.path);
   std::string part, walked;
-  std::getline(parts, part, '.');
-  while (true) {
+  while (std::getline(parts, part, '.')) {
     walked += (walked.empty() ? "" : ".") + part;
-    std::string next;
-    const bool last = !std::getline(parts, next, '.');
     if (node->is_array()) {
       char* end = nullptr;
       const long k = std::strtol(part.c_str(), &end, 10);
       if (part.empty() || *end || k < 0 || k >= static_cast<long>(node->size()))
-        throw InputError(file + ": --set " + walked + ": no element " + part + " (the array has " +
-                         std::to_string(node->size()) + ")");
+        throw InputError("--set " + assignment + " on " + file + ": " + walked + ": no element " +
+                         part + " (the array has " + std::to_string(node->size()) + ")");
       node = &(*node)[k];
     } else if (node->is_object() || node->is_null()) {
       node = &(*node)[part];
     } else {
-      throw InputError(file + ": --set " + walked + ": cannot set a field inside a " +
-                       node->type_name());
+      throw InputError("--set " + assignment + " on " + file + ": " + walked +
+                       ": cannot set a field inside a " + node->type_name());
     }
-    if (last) break;
-    part = next;
   }
   *node = value;
+}
+
+// Whether one dotted path is the other or lies inside it.
+bool overlaps(const std::string& a, const std::string& b) {
+  const auto inside = [](const std::string& inner, const std::string& outer) {
+    return inner.size() > outer.size() && inner.compare(0, outer.size(), outer) == 0 &&
+           inner[outer.size()] == '.';
+  };
+  return a == b || inside(a, b) || inside(b, a);
+}
+
+}  // namespace
+
+bool overridesField(const std::vector<std::string>& overrides, const std::string& path) {
+  return std::any_of(overrides.begin(), overrides.end(),
+                     [&](const std::string& o) { return overlaps(splitAssignment(o).path, path); });
 }
 
 namespace {
@@ -203,16 +214,19 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   return c;
 }
 
-bool isPerfectPower(int n, int dim, int& root) {
-  for (root = 1; root <= n; ++root) {
-    const int p = dim == 2 ? root * root : root * root * root;
-    if (p == n) return true;
-    if (p > n) break;
+// "" when `count` particles per cell fill a lattice in the dimension, else what is wrong.
+std::string latticeProblem(int count, int dimension) {
+  for (int root = 1; root <= count; ++root) {
+    const int p = dimension == 2 ? root * root : root * root * root;
+    if (p == count) return "";
+    if (p > count) break;
   }
-  return false;
+  return std::to_string(count) + " is not a " + (dimension == 2 ? "square" : "cube") +
+         "; allowed: " + (dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ...");
 }
 
-Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
+// `scene_fields` reads the scene's top level: a default count that fills no lattice is its fault.
+Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& scene_fields) {
   const std::string path = "bodies[" + std::to_string(index) + "]";
   JsonFields f(j, path, scene.file);
   const std::vector<int> dims{scene.authored_dimension};
@@ -234,13 +248,11 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
     b.cut_normal = unitDirection(f, "cut_normal", cut);
   }
   b.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
-  b.particles_per_cell = f.integer("particles_per_cell", default_ppc, 1, 1000);
-  int root;
-  if (!isPerfectPower(b.particles_per_cell, scene.authored_dimension, root))
-    f.fail("particles_per_cell",
-           std::to_string(b.particles_per_cell) + " is not a " +
-               (scene.authored_dimension == 2 ? "square" : "cube") + "; allowed: " +
-               (scene.authored_dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ..."));
+  b.own_particles_per_cell = f.has("particles_per_cell");
+  b.particles_per_cell = f.integer("particles_per_cell", scene.particles_per_cell, 1, 1000);
+  if (const std::string problem = latticeProblem(b.particles_per_cell, scene.authored_dimension);
+      !problem.empty())
+    (b.own_particles_per_cell ? f : scene_fields).fail("particles_per_cell", problem);
   b.density = f.number("density", b.density, 0, 1e6, true);
   f.finish();
 
@@ -257,6 +269,35 @@ Body parseBody(const Json& j, int index, const Scene& scene, int default_ppc) {
     }
   }
   return b;
+}
+
+Vec3 point(JsonFields& f, const std::string& key, std::optional<std::vector<double>> fallback) {
+  return toVec3(f.numbers(key, fallback, {3}));
+}
+
+SceneRender parseRender(const Json* j, const std::string& file) {
+  SceneRender r;
+  if (!j) return r;
+  JsonFields f(*j, "render", file);
+  if (f.given("width")) r.width = f.integer("width", std::nullopt, 16, 8192);
+  if (f.given("height")) r.height = f.integer("height", std::nullopt, 16, 8192);
+  if (f.given("color_by"))
+    r.color_by = f.choice("color_by", {"white", "density", "speed", "plastic"}, std::nullopt);
+  if (f.given("sphere_radius")) r.sphere_radius = f.number("sphere_radius", std::nullopt, 0, 10);
+  if (f.given("grid")) r.grid = f.boolean("grid", std::nullopt);
+  if (f.given("density_cells")) r.density_cells = f.boolean("density_cells", std::nullopt);
+  if (const Json* camera = f.object("camera", false)) {
+    JsonFields c(*camera, "render.camera", file);
+    SceneCamera& view = r.camera.emplace();
+    view.eye = point(c, "eye", std::nullopt);
+    view.target = point(c, "target", std::nullopt);
+    view.up = point(c, "up", std::vector<double>{0, 1, 0});
+    if (c.given("fov")) view.fov = c.number("fov", std::nullopt, 0, 180, true, true);
+    if (view.eye == view.target) c.fail("target", "must differ from eye");
+    c.finish();
+  }
+  f.finish();
+  return r;
 }
 
 }  // namespace
@@ -309,14 +350,14 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.fps = t.number("fps", 50, 0, 1e4, true);
   t.finish();
 
-  const int default_ppc =
+  s.particles_per_cell =
       f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
   const Json* bodies = f.array("bodies", true);
   if (bodies->empty()) f.fail("bodies", "needs at least one body");
   for (size_t i = 0; i < bodies->size(); ++i)
-    s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, default_ppc));
+    s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, f));
 
-  if (const Json* render = f.object("render", false)) s.render = *render;
+  s.render = parseRender(f.object("render", false), file);
   f.finish();
   return s;
 }
@@ -324,7 +365,35 @@ Scene parseScene(const Json& root, const std::string& file) {
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides) {
   Json root = readJsonFile(path);
   for (const std::string& o : overrides) applyOverride(root, o, path);
-  return parseScene(root, path);
+  try {
+    return parseScene(root, path);
+  } catch (const FieldError& e) {
+    // A field an override wrote: blame the last assignment to it, not the file.
+    for (auto o = overrides.rbegin(); o != overrides.rend(); ++o)
+      if (overlaps(splitAssignment(*o).path, e.field))
+        throw InputError("--set " + *o + " on " + path + ": " + e.problem);
+    throw;
+  }
+}
+
+void setParticlesPerCell(Scene& scene, int count) {
+  std::string problem = latticeProblem(count, scene.authored_dimension);
+  if (count < 1 || count > 1000)
+    problem = std::to_string(count) + " is out of range; allowed: 1 to 1000";
+  if (!problem.empty()) throw InputError(scene.file + ": particles_per_cell: " + problem);
+  scene.particles_per_cell = count;
+  for (Body& body : scene.bodies)
+    if (!body.own_particles_per_cell) body.particles_per_cell = count;
+}
+
+void refineGrid(Scene& scene, int factor) {
+  for (int a = 0; a < scene.authored_dimension; ++a)
+    if (factor < 1 || static_cast<long>(scene.cells[a]) * factor > 4096)
+      throw InputError(scene.file + ": grid.cells: " + std::to_string(factor) + " times " +
+                       std::to_string(scene.cells[a]) +
+                       " cells is out of range; allowed: 1 to 4096 along each axis");
+  for (int a = 0; a < scene.authored_dimension; ++a) scene.cells[a] *= factor;
+  scene.cell_size /= factor;
 }
 
 }  // namespace snowsim

@@ -3,10 +3,9 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "sim/core/bspline.h"
 #include "sim/mpm/snow_material.h"
@@ -88,6 +87,27 @@ struct Body {
   Vec3 velocity{};              // initial velocity (m/s)
   int particles_per_cell = 27;  // particles per cell of the scene's authored dimension
   double density = 400;         // kg/m^3
+  // The body gives its particles_per_cell; else it has the scene's default.
+  bool own_particles_per_cell = false;
+};
+
+// A 3D camera of the `render` object: eye and target are required, the rest optional.
+struct SceneCamera {
+  Vec3 eye{};                 // m
+  Vec3 target{};              // m, differs from eye
+  Vec3 up{0, 1, 0};           // the image's up direction
+  std::optional<double> fov;  // vertical field of view, degrees in (0, 180)
+};
+
+// The scene's `render` object: how `snowsim run` draws it (docs/scene-format.md). A field left
+// out takes the renderer's default; render/scene_render.h turns this into RenderSettings.
+struct SceneRender {
+  std::optional<int> width, height;     // pixels, 16 to 8192
+  std::optional<std::string> color_by;  // "white", "density", "speed" or "plastic"
+  std::optional<double> sphere_radius;  // m in [0, 10]; 0: half the particle spacing
+  std::optional<bool> grid;             // draw the cell lines, walls and ground
+  std::optional<bool> density_cells;    // 2D: shade each cell by its density
+  std::optional<SceneCamera> camera;    // 3D; none: the default view of the whole domain
 };
 
 struct Scene {
@@ -107,24 +127,33 @@ struct Scene {
   double dt = 0.001;      // time step (s)
   double duration = 1.0;  // simulated time (s)
   double fps = 50;        // frames written per simulated second
+  // The particles per cell of every body that gives none: 9 in 2D, 27 in 3D unless the file says.
+  int particles_per_cell = 9;
   std::vector<Body> bodies;
-  nlohmann::json render = nlohmann::json::object();  // validated by render/
+  SceneRender render;
 
   Vec3 extent() const;
   int frameCount() const;  // frames after the initial one
 };
 
-// Applies "dotted.path=value" to a scene's JSON before it is validated; value is JSON when it
-// parses as JSON, else a string. Array elements are addressed by number: bodies.0.radius=0.01.
-void applyOverride(nlohmann::json& root, const std::string& assignment, const std::string& file);
-
-// Parses and validates; throws InputError naming the file and field.
-Scene parseScene(const nlohmann::json& root, const std::string& file);
-
-// Reads a scene file, applies the overrides, validates.
+// Reads a scene file, applies the overrides in order, then parses and validates it once. An
+// override is "path=value" as given to --set: the path dotted (bodies.0.radius) or with indices
+// (bodies[0].radius), the value JSON when it parses as JSON, else a string. Throws InputError
+// naming the file and field, and the --set assignment when the field is one it set.
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
 
-// Reads a JSON file; a syntax error names the file, line and column.
-nlohmann::json readJsonFile(const std::string& path);
+// True when one of the overrides sets the field at `path` (dotted), a field inside it or an
+// object holding it: what a program's own change to a scene must leave to the user.
+bool overridesField(const std::vector<std::string>& overrides, const std::string& path);
+
+// Typed changes to a parsed scene, for code that derives scenes from a scene (quality levels,
+// the study's configurations): numbers keep every digit, and the scene stays valid (InputError
+// naming the file and field otherwise).
+
+// Sets the scene's particles per cell: the default and every body that gives none.
+void setParticlesPerCell(Scene& scene, int count);
+
+// `factor` times the cells of every authored axis, cell size / factor: the same domain, finer.
+void refineGrid(Scene& scene, int factor);
 
 }  // namespace snowsim

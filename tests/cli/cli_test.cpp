@@ -1,7 +1,9 @@
 // The command line as a user meets it: exit codes, messages, and no half-written output.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -10,6 +12,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -23,14 +27,19 @@ struct Result {
   std::string output;  // stdout and stderr together
 };
 
-Result runSnowsim(const std::string& args) {
-  const std::string command = std::string(SNOWSIM_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line, e.g. a snowsim binary with its arguments.
+Result runCommand(const std::string& command_line) {
+  const std::string command = command_line + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   std::string output;
   std::array<char, 4096> buffer;
   while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
   const int status = pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+Result runSnowsim(const std::string& args) {
+  return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
 }
 
 fs::path freshDir(const std::string& name) {
@@ -116,6 +125,76 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-codec nonesuch", "--mp4-codec");
   expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
+}
+
+// A bad value given by --set is blamed on the assignment, which the user can find and fix.
+TEST(Cli, ErrorsOfSetNameTheAssignment) {
+  expectRejected("run " + scene("snowball_drop") + " --set mpm.cfl=-1",
+                 "--set mpm.cfl=-1 on " + scene("snowball_drop") +
+                     ": mpm.cfl: -1 is out of range; allowed: (0, 1]");
+  expectRejected("run " + scene("snowball_drop") + " --set 'bodies[0].raduis=0.01'",
+                 "--set bodies[0].raduis=0.01 on");
+}
+
+TEST(Cli, SetTakesArrayIndicesInBrackets) {
+  const fs::path out = freshDir("brackets");
+  const std::string run = "run " + scene("snowball_drop") + " -o " + out.string() +
+                          " --no-png --no-mp4 --set time.duration=0.02 ";
+  Result r = runSnowsim(run + "--set 'bodies[0].radius=0.02'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const int bigger = nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"];
+  r = runSnowsim(run + "--set bodies.0.radius=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"], bigger);
+  EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";
+}
+
+TEST(Cli, ThreadsMustBeAWholeNumberFrom1To1024) {
+  for (const char* bad : {"0", "abc", "1025", "-3", "2.5"})
+    expectRejected("run " + scene("snowball_drop") + " --threads " + bad,
+                   "allowed: a whole number from 1 to 1024");
+  const fs::path out = freshDir("threads");
+  const Result r = runSnowsim("run " + scene("mpm_reference") + " -o " + out.string() +
+                              " --no-png --no-mp4 --threads 1 --set time.duration=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "frame_00001.ply"));
+  const Result study = runSnowsim("study --quick --threads 0 -o " + (out / "s.csv").string());
+  EXPECT_EQ(study.code, 2) << study.output;
+  EXPECT_FALSE(fs::exists(out / "s.csv"));
+}
+
+// The scene file is read once, whatever the options: a named pipe, which can be read only once,
+// serves as the scene of a run at a quality level.
+TEST(Cli, RunReadsTheSceneOnce) {
+  const fs::path dir = freshDir("fifo");
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "scene.json";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  std::stringstream text;
+  text << std::ifstream(scene("snowball_drop")).rdbuf();
+  std::thread writer([&] { std::ofstream(fifo) << text.str(); });
+  const Result r = runCommand("timeout 60 " + std::string(SNOWSIM_BINARY) + " run " +
+                              fifo.string() + " -o " + (dir / "out").string() +
+                              " --quality draft --no-png --no-mp4 --set time.duration=0.02");
+  // Should snowsim not have opened the pipe, a reader lets the writer finish.
+  const int reader = open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  writer.join();
+  close(reader);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "out" / "run.json"));
+}
+
+TEST(Cli, VersionNamesTheCommit) {
+  const Result r = runSnowsim("--version");
+  EXPECT_EQ(r.code, 0);
+  std::smatch m;
+  ASSERT_TRUE(
+      std::regex_search(r.output, m, std::regex(R"(^snowsim \d+\.\d+\S* \(commit (\S+)\))")))
+      << r.output;
+  if (fs::exists(fs::path(SNOWSIM_SOURCE_DIR) / ".git"))
+    EXPECT_TRUE(std::regex_match(m[1].str(), std::regex("[0-9a-f]{7,40}"))) << r.output;
+  else
+    EXPECT_EQ(m[1].str(), "unknown");
 }
 
 // What ffprobe reads of a video: codec, size, pixel format and the frames it decodes.
@@ -221,6 +300,10 @@ TEST(Cli, HelpDescribesEachSubcommand) {
   EXPECT_EQ(run.code, 0);
   EXPECT_NE(run.output.find("--set"), std::string::npos);
   EXPECT_NE(run.output.find("Exit codes"), std::string::npos);
+  EXPECT_NE(run.output.find("--threads"), std::string::npos);
+  for (const char* flag : {"--no-ply", "--no-png", "--no-mp4"})
+    EXPECT_NE(run.output.find(std::string(flag) + "  "), std::string::npos) << flag;
+  EXPECT_EQ(run.output.find("{false}"), std::string::npos) << run.output;
 }
 
 }  // namespace
@@ -245,6 +328,48 @@ TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
   const Result unknown = runSnowsim("figure fig9 -o " + out.string());
   EXPECT_EQ(unknown.code, 2);
   EXPECT_NE(unknown.output.find("allowed: fig1"), std::string::npos) << unknown.output;
+}
+
+// A one-row figure of the first 0.02 s of the snowball drop, in a scenes directory of its own.
+void writeTinyFigure(const fs::path& scenes) {
+  fs::create_directories(scenes);
+  fs::copy_file(scene("snowball_drop"), scenes / "snowball_drop.json");
+  std::ofstream(scenes / "figures.json")
+      << R"({"tiny": {"rows": [{"scene": "snowball_drop", "times": [0.02]}]}})";
+}
+
+// Without --figures: scenes/figures.json of the current directory, else the one beside the
+// binary (the build tree's, or a moved binary's), else an installation's.
+TEST(Cli, FigureFindsItsDescriptionsFromAnyDirectory) {
+  const fs::path dir = freshDir("figure_cwd");
+  fs::create_directories(dir / "elsewhere");
+  const std::string elsewhere = "cd " + (dir / "elsewhere").string() + " && ";
+  Result r = runCommand(elsewhere + SNOWSIM_BINARY + " figure fig9 -o out");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("allowed: fig1"), std::string::npos) << r.output;
+
+  writeTinyFigure(dir / "elsewhere" / "scenes");
+  r = runCommand(elsewhere + SNOWSIM_BINARY + " figure tiny -o out");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "elsewhere" / "out" / "tiny.png"));
+
+  // A moved binary with its scenes beside it, and an installation under a prefix.
+  for (const auto& [binary, scenes] :
+       {std::pair{dir / "moved" / "snowsim", dir / "moved" / "scenes"},
+        std::pair{dir / "prefix" / "bin" / "snowsim", dir / "prefix" / "share/snowsim/scenes"}}) {
+    fs::create_directories(binary.parent_path());
+    fs::copy_file(SNOWSIM_BINARY, binary);
+    const std::string run = "cd " + dir.string() + " && " + binary.string() + " figure tiny -o " +
+                            (binary.parent_path() / "out").string();
+    r = runCommand(run);
+    EXPECT_EQ(r.code, 2) << "no scenes yet: " << r.output;
+    EXPECT_NE(r.output.find("give their file with --figures"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(scenes.string()), std::string::npos) << r.output;
+    writeTinyFigure(scenes);
+    r = runCommand(run);
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(binary.parent_path() / "out" / "tiny.png")) << binary;
+  }
 }
 
 }  // namespace

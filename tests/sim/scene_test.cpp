@@ -3,12 +3,18 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "sim/core/errors.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
+
+// The scene is plain structs: its header keeps the JSON library to itself.
+#ifdef NLOHMANN_JSON_VERSION_MAJOR
+#error "sim/scene/scene.h includes nlohmann/json"
+#endif
 
 namespace snowsim {
 namespace {
@@ -112,6 +118,140 @@ TEST(Scene, OverridesReachNestedFieldsAndArrayElements) {
   EXPECT_EQ(s.name, "renamed");
   const std::string message = errorOf(kMinimal, {"bodies.3.radius=0.01"});
   EXPECT_NE(message.find("no element 3 (the array has 1)"), std::string::npos) << message;
+}
+
+TEST(Scene, OverridesTakeIndicesInBrackets) {
+  const Scene s =
+      loadScene(writeTemp(kMinimal), {"bodies[0].radius=0.02", "bodies[0].velocity=[1,2]"});
+  EXPECT_DOUBLE_EQ(s.bodies[0].radius, 0.02);
+  EXPECT_DOUBLE_EQ(s.bodies[0].velocity[1], 2);
+  EXPECT_NE(errorOf(kMinimal, {"bodies[3].radius=0.01"}).find("no element 3 (the array has 1)"),
+            std::string::npos);
+  for (const char* bad : {"bodies[0.radius=1", "bodies]0[.radius=1", "bodies..radius=1", ".dt=1"})
+    EXPECT_NE(errorOf(kMinimal, {bad}).find(std::string("--set ") + bad), std::string::npos) << bad;
+}
+
+// An invalid value set by --set is blamed on the assignment (the last one to the field, or to an
+// object holding it); a bad value in the file is blamed on the file alone.
+TEST(Scene, ErrorsOfAnOverrideNameTheAssignment) {
+  std::string message = errorOf(kMinimal, {"time.dt=-0.001"});
+  EXPECT_EQ(message.rfind("--set time.dt=-0.001 on ", 0), 0u) << message;
+  EXPECT_NE(message.find("time.dt: -0.001 is out of range; allowed: (0, 10]"), std::string::npos)
+      << message;
+
+  message = errorOf(kMinimal, {"time.dt=-1", "name=x", "time.dt=-2"});
+  EXPECT_NE(message.find("--set time.dt=-2 on"), std::string::npos) << message;
+  message = errorOf(kMinimal, {R"(time={"dt": -1})"});
+  EXPECT_NE(message.find(R"(--set time={"dt": -1} on)"), std::string::npos) << message;
+  message = errorOf(kMinimal, {"bodies[0].raduis=0.01"});
+  EXPECT_NE(message.find("--set bodies[0].raduis=0.01 on"), std::string::npos) << message;
+  EXPECT_NE(message.find("bodies[0].raduis: unknown field; did you mean \"radius\"?"),
+            std::string::npos)
+      << message;
+
+  std::string text = kMinimal;
+  text.replace(text.find("\"cell_size\": 0.01"), 17, "\"cell_size\": -1");
+  message = errorOf(text, {"time.dt=0.002"});
+  EXPECT_NE(message.find("grid.cell_size: -1 is out of range"), std::string::npos) << message;
+  EXPECT_EQ(message.find("--set"), std::string::npos) << message;
+}
+
+// A default particle count that fills no lattice is the top level's fault, not the body's.
+TEST(Scene, DefaultParticlesPerCellIsBlamedWhereItIsWritten) {
+  const std::string message = errorOf(kMinimal, {"particles_per_cell=8"});
+  EXPECT_NE(message.find(": particles_per_cell: 8 is not a square"), std::string::npos) << message;
+  EXPECT_EQ(message.find("bodies[0]"), std::string::npos) << message;
+}
+
+TEST(Scene, OverridesFieldSeesTheFieldItsParentsAndItsParts) {
+  const std::vector<std::string> set = {"grid.cell_size=0.005", "mpm={}", "bodies[0].radius=1",
+                                        "time.dt.x=1"};
+  EXPECT_TRUE(overridesField(set, "grid.cell_size"));
+  EXPECT_FALSE(overridesField(set, "grid.cells"));
+  EXPECT_FALSE(overridesField(set, "grid.cell"));
+  EXPECT_TRUE(overridesField(set, "mpm.cfl"));
+  EXPECT_TRUE(overridesField(set, "bodies.0.radius"));
+  EXPECT_FALSE(overridesField(set, "bodies.1.radius"));
+  EXPECT_TRUE(overridesField(set, "time.dt"));
+  EXPECT_FALSE(overridesField(set, "time.duration"));
+}
+
+TEST(Scene, RenderObjectIsParsedWithTheScene) {
+  std::string text = kMinimal;
+  text.insert(text.rfind('}'), R"(, "render": {"width": 640, "color_by": "speed", "grid": false,
+    "camera": {"eye": [0.1, 0.3, 0.4], "target": [0.1, 0.05, 0.1], "fov": 50}})");
+  const Scene s = loadScene(writeTemp(text));
+  EXPECT_EQ(s.render.width, 640);
+  EXPECT_FALSE(s.render.height.has_value());
+  EXPECT_EQ(s.render.color_by, "speed");
+  EXPECT_EQ(s.render.grid, false);
+  EXPECT_FALSE(s.render.density_cells.has_value());
+  ASSERT_TRUE(s.render.camera.has_value());
+  EXPECT_DOUBLE_EQ(s.render.camera->eye[1], 0.3);
+  EXPECT_DOUBLE_EQ(s.render.camera->up[1], 1);
+  EXPECT_EQ(s.render.camera->fov, 50);
+  EXPECT_FALSE(loadScene(writeTemp(kMinimal)).render.camera.has_value());
+
+  EXPECT_NE(errorOf(kMinimal, {"render.widht=100"})
+                .find("render.widht: unknown field; did you mean \"width\"?"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.width=8"})
+                .find("render.width: 8 is out of range; allowed: 16 to 8192"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.color_by=temperature"})
+                .find(R"(render.color_by: "temperature" is not allowed; allowed: "white")"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1], "target": [1, 1, 1]})"})
+                .find("render.camera.target: must differ from eye"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1]})"})
+                .find("render.camera.target: missing"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"eye": [1, 1, 1], "target": [0, 0, 0]})",
+                               "render.camera.fov=180"})
+                .find("render.camera.fov: 180 is out of range; allowed: (0, 180)"),
+            std::string::npos);
+}
+
+// Typed changes keep every digit: a third of a centimetre halved is exactly half of it.
+TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
+  const double h = 0.01 / 3;
+  char cell_size[64];
+  std::snprintf(cell_size, sizeof cell_size, "grid.cell_size=%.17g", h);
+  Scene s = loadScene(writeTemp(kMinimal),
+                      {"grid.cells=[30,36]", cell_size, "dimension=3", "grid.depth_cells=2"});
+  ASSERT_EQ(s.cell_size, h);
+  const Vec3 extent = s.extent();
+  refineGrid(s, 2);
+  EXPECT_EQ(s.cell_size, h / 2);
+  EXPECT_EQ(s.cells[0], 60);
+  EXPECT_EQ(s.cells[1], 72);
+  EXPECT_EQ(s.cells[2], 2) << "a 2D scene's slab keeps its depth in cells";
+  EXPECT_EQ(s.extent()[0], extent[0]);
+  EXPECT_EQ(s.extent()[1], extent[1]);
+  EXPECT_THROW(refineGrid(s, 100), InputError);
+}
+
+TEST(Scene, ParticlesPerCellChangesTheBodiesWithoutTheirOwn) {
+  std::string text = kMinimal;
+  text.replace(text.find("}]"), 2,
+               R"(}, {"shape": "box", "center": [0.05, 0.02], "size": [0.02, 0.02],
+                       "particles_per_cell": 16}])");
+  Scene s = loadScene(writeTemp(text));
+  EXPECT_FALSE(s.bodies[0].own_particles_per_cell);
+  EXPECT_TRUE(s.bodies[1].own_particles_per_cell);
+  setParticlesPerCell(s, 4);
+  EXPECT_EQ(s.particles_per_cell, 4);
+  EXPECT_EQ(s.bodies[0].particles_per_cell, 4);
+  EXPECT_EQ(s.bodies[1].particles_per_cell, 16);
+  try {
+    setParticlesPerCell(s, 8);
+    ADD_FAILURE() << "8 fills no 2D lattice";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("particles_per_cell: 8 is not a square"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {

@@ -2,12 +2,15 @@
 // (status, not NaN), and a rerun by the same build measures nothing again.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -131,6 +134,48 @@ TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {
   EXPECT_GT(mpm_draft, 1000);  // the CFL step of E0 = 1.4e5 Pa snow on 1 cm cells is ~0.5 ms
   EXPECT_NEAR(mpm_figure, mpm_draft, 0.2 * mpm_draft);
   EXPECT_GT(mpm_reference, 3 * mpm_figure);
+}
+
+}  // namespace
+
+namespace {
+
+// run.json of a short MPM run of the snowball drop on a grid of 30x36 cells of a third of a
+// centimetre (the same domain), or null when the run fails.
+nlohmann::json thirdCentimetreRun(const std::string& arguments) {
+  const auto dir = std::filesystem::temp_directory_path() / "snowsim_quality_cells";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  auto scene = nlohmann::json::parse(
+      std::ifstream(std::string(SNOWSIM_SOURCE_DIR) + "/scenes/snowball_drop.json"));
+  scene["solver"] = "mpm";
+  scene["grid"] = {{"cells", {30, 36}}, {"cell_size", 0.01 / 3}};
+  std::ofstream(dir / "scene.json") << scene.dump();
+  const std::string command = std::string(SNOWSIM_BINARY) + " run " +
+                              (dir / "scene.json").string() +
+                              " --no-png --no-ply --no-mp4 --set time.duration=0.002 -o " +
+                              (dir / "out").string() + " " + arguments + " 2>/dev/null";
+  if (std::system(command.c_str()) != 0) return nullptr;
+  return nlohmann::json::parse(std::ifstream(dir / "out" / "run.json"));
+}
+
+// The reference level's half cell size is exact: never a number written out and read back.
+TEST(QualityOption, ReferenceHalvesTheCellSizeExactlyUnlessSetGivesIt) {
+  const double h = 0.01 / 3;
+  const auto as_written = thirdCentimetreRun("");
+  ASSERT_FALSE(as_written.is_null());
+  EXPECT_EQ(as_written["cell_size"].get<double>(), h);
+  const auto reference = thirdCentimetreRun("--quality reference");
+  ASSERT_FALSE(reference.is_null());
+  EXPECT_EQ(reference["cell_size"].get<double>(), h / 2);
+  EXPECT_GT(reference["particles"].get<int>(), 3 * as_written["particles"].get<int>())
+      << "twice the cells each way at 9 per cell";
+  // The user's grid wins over the level's.
+  char set[64];
+  std::snprintf(set, sizeof set, "--set grid.cell_size=%.17g", h);
+  const auto user = thirdCentimetreRun(std::string("--quality reference ") + set);
+  ASSERT_FALSE(user.is_null());
+  EXPECT_EQ(user["cell_size"].get<double>(), h);
 }
 
 }  // namespace

@@ -1,0 +1,28 @@
+#include "app/options.h"
+
+#include <algorithm>
+#include <cctype>
+
+namespace snowsim {
+
+void addThreadsOption(CLI::App& command, int& threads) {
+  const auto check = [](std::string& text) -> std::string {
+    const bool digits =
+        !text.empty() && text.size() <= 4 &&
+        std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
+    if (digits && std::stoi(text) >= 1 && std::stoi(text) <= 1024) return "";
+    return "\"" + text + "\" is not allowed; allowed: a whole number from 1 to 1024";
+  };
+  command
+      .add_option("--threads", threads,
+                  "Threads of the MPM solver (default: OMP_NUM_THREADS, else every core); the "
+                  "simulated frames do not depend on it")
+      ->check(CLI::Validator(check, "1 to 1024"));
+}
+
+void addOffFlag(CLI::App& command, const std::string& name, bool& value, const std::string& help) {
+  command.add_flag_callback(
+      name, [&value] { value = false; }, help);
+}
+
+}  // namespace snowsim

@@ -1,0 +1,17 @@
+// Options several subcommands share.
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace snowsim {
+
+// --threads N: the MPM solver's threads, 1 to 1024; `threads` stays 0 (the OpenMP default) when
+// the option is not given.
+void addThreadsOption(CLI::App& command, int& threads);
+
+// A flag that turns `value` off, e.g. --no-png; its help reads without CLI11's "{false}".
+void addOffFlag(CLI::App& command, const std::string& name, bool& value, const std::string& help);
+
+}  // namespace snowsim

@@ -1,7 +1,6 @@
-// The quality levels, from the full study's Pareto fronts (docs/study.md: errors against the APIC
-// MPM reference run; 0.5 s of the report's snowball drop and thrown ball, 0.3 s of a 3D smash).
-// Costs are `snowsim run --quality L --no-png --no-mp4 --no-ply` over the same durations; errors
-// are the study's rows with the same settings (MPM: the fixed dt nearest the adaptive one).
+// The quality levels, from the full study's Pareto fronts: docs/study.md, "snowsim run --quality",
+// has each level's measured cost and error on the report's snowball drop and thrown ball and on
+// a 3D smash.
 #include "app/quality.h"
 
 #include "sim/core/errors.h"
@@ -31,12 +30,9 @@ class Changes {
 };
 
 // The report's method: only its time step and particle count matter (a finer grid is a different
-// model for it, not a more accurate one). Study rows, drop / thrown ball:
+// model for it, not a more accurate one).
 void densityHybrid(const std::string& level, Changes& c) {
-  // draft: 2.7 / 5.6 ms, density-field error 0.68 / 0.75. dt 0.005 would halve the cost, but the
-  // thrown ball then tunnels through the tower.
-  // figure: 6.9 / 17 ms, error 0.53 / 0.58.
-  // reference: 33 / 86 ms, error 0.27 / 0.52.
+  // A draft dt of 0.005 would halve the cost, but the thrown ball then tunnels through the tower.
   c.set("time.dt", c.scene.dt, level == "draft" ? 0.002 : level == "figure" ? 0.001 : 0.0002);
   c.particlesPerCell(level == "draft" ? 9 : 16);
 }
@@ -49,14 +45,10 @@ void mpm(const std::string& level, Changes& c) {
   c.set("mpm.transfer", c.scene.mpm.transfer, MpmTransfer::Mls);
   c.set("mpm.integrator", c.scene.mpm.integrator, MpmIntegrator::Explicit);
   c.set("mpm.adaptive_dt", c.scene.mpm.adaptive_dt, true);
-  // draft: 4 per cell (8 in 3D). Drop / ball / smash: 18 / 25 / 1900 ms, error 0.80 / 0.71 / 0.75.
   if (level == "draft") c.particlesPerCell(two_d ? 4 : 8);
-  // figure: 9 per cell (8 in 3D: 27 triples the cost for no measured gain): 23 / 58 ms in 2D,
-  // error 0.64 / 0.48.
+  // 27 per cell in 3D triples the cost for no measured gain at this level.
   if (level == "figure") c.particlesPerCell(two_d ? 9 : 8);
   if (level == "reference") {
-    // reference: half the cell size, 9 per cell (27 in 3D), C = 0.5: 0.43 / 1.2 / 147 s, error
-    // 0.23 / 0.27 in 2D (study rows at half the cell size, dt 1e-4).
     c.particlesPerCell(two_d ? 9 : 27);
     c.set("mpm.cfl", c.scene.mpm.cfl, 0.5);
     if (c.free("grid.cells") && c.free("grid.cell_size")) refineGrid(c.scene, 2);

@@ -38,8 +38,8 @@ void densityHybrid(const std::string& level, Changes& c) {
 }
 
 // MPM: explicit MLS at the adaptive CFL step. The semi-implicit solver is on the drop's front at
-// half the cell size but costs 4-10x more on the thrown ball (the tower's ground contact) and
-// 25-60x more in 3D (docs/study.md), so no level uses it.
+// half the cell size but costs several times more on the thrown ball (the tower's ground contact)
+// and more still in 3D (docs/study.md), so no level uses it.
 void mpm(const std::string& level, Changes& c) {
   const bool two_d = c.scene.authored_dimension == 2;
   c.set("mpm.transfer", c.scene.mpm.transfer, MpmTransfer::Mls);

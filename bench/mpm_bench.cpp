@@ -151,7 +151,7 @@ double sideBySideRate(const Scene& scene, int steps) {
   return rate[0] + rate[1];
 }
 
-// One and two threads alternate, so a slow spell of this shared machine hits both alike; the
+// One and two threads alternate, so a slow period of a shared machine hits both alike; the
 // speed-up is the median of the ratios of each pair. The ceiling, two one-thread solvers side by
 // side over the one-thread rate, is measured just before each pair.
 template <int D>

@@ -1,11 +1,11 @@
-// What it costs two threads to meet, which sim/parallel/team.h is built on, in µs per meeting (median of
-// repetitions): an empty OpenMP parallel region, against an empty task of sim/parallel/team.h's Team (its
-// worker woken, then both meeting at the end); an OpenMP barrier, std::barrier and SpinBarrier,
-// meeting back to back and with one thread arriving 2 µs after the other. An explicit MPM step
-// is one task with three barriers (scatter, grid stage, particle pass), two more when it bins
-// the particles (every step in 3D, rarely in 2D), and eight more when it stores them sorted
-// (two for each of the sort's four rounds; at most every 16 steps).
-// Usage: sync_bench [meetings=20000] [repetitions=7]
+// What it costs two threads to meet, which sim/parallel/team.h is built on, in µs per meeting
+// (median of repetitions): an empty OpenMP parallel region, against an empty task of
+// sim/parallel/team.h's Team (its worker woken, then both meeting at the end); an OpenMP barrier,
+// std::barrier and SpinBarrier, meeting back to back and with one thread arriving 2 µs after the
+// other. An explicit MPM step is one task with three barriers (scatter, grid stage, particle pass),
+// two more when it bins the particles (every step in 3D, rarely in 2D), and eight more when it
+// stores them sorted (two for each of the sort's four rounds; at most every 16 steps). Usage:
+// sync_bench [meetings=20000] [repetitions=7]
 #include <omp.h>
 
 #include <barrier>

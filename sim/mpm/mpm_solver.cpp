@@ -56,8 +56,8 @@ template <int D>
 template <class Transfer, class Kernel>
 void MpmSolver<D>::stepWith(Real dt) {
   const bool semi_implicit = params_.integrator == MpmIntegrator::SemiImplicit;
-  // The semi-implicit solve opens OpenMP regions of its own and may throw, so its stages each
-  // meet on their own; the explicit stages share the team's threads.
+  // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
+  // stages each meet on their own; the explicit stages share the team's threads.
   schedule_.step(particles_, !semi_implicit, [&] {
     // 1, 3: mass, momentum and forces to the grid.
     schedule_.scatter([&](int p, PartialGrid& g) { scatterParticle<Transfer, Kernel>(p, g, dt); });
@@ -69,15 +69,20 @@ void MpmSolver<D>::stepWith(Real dt) {
     });
     if (semi_implicit) solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
-    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
-                                [&](int p, PartMeasure& m) {
-                                  gatherVelocity<Transfer, Kernel>(p);  // 8 (7 needs grad v)
-                                  updateDeformation<Transfer>(p, dt);   // 7
-                                  collideParticle(p);                   // 9
-                                  advect(p, dt);                        // 10
-                                  return measure(p, m);
-                                });
+    schedule_.passOverParticles(
+        "move particles", particles_.x, part_measures_,
+        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt); });
   });
+}
+
+template <int D>
+template <class Transfer, class Kernel>
+Real MpmSolver<D>::moveParticle(int p, PartMeasure& m, Real dt) {
+  gatherVelocity<Transfer, Kernel>(p);  // 8 (gathered first: 7 needs grad v)
+  updateDeformation<Transfer>(p, dt);   // 7
+  collideParticle(p);                   // 9
+  advect(p, dt);                        // 10
+  return measure(p, m);
 }
 
 template <int D>
@@ -309,14 +314,9 @@ template <int D>
 void MpmSolver<D>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
-                                [&](int p, PartMeasure& m) {
-                                  gatherVelocity<Transfer, Kernel>(p);
-                                  updateDeformation<Transfer>(p, dt);
-                                  collideParticle(p);
-                                  advect(p, dt);
-                                  return measure(p, m);
-                                });
+    schedule_.passOverParticles(
+        "move particles", particles_.x, part_measures_,
+        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt); });
   });
   collectMeasures();
 }

@@ -48,8 +48,7 @@ class MpmSolver final : public Solver<D> {
   const KrylovResult& lastImplicitSolve() const { return last_solve_; }
 
   void setThreads(int threads) { schedule_.setThreads(threads); }  // from the next step on
-  // Where the steps' time goes, stage by stage and thread by thread (bench/mpm_bench prints it);
-  // the semi-implicit solve's own OpenMP regions are not in it.
+  // Where the steps' time goes, stage by stage and thread by thread (bench/mpm_bench prints it).
   void profileStages(bool on) { schedule_.profileStages(on); }
   int profiledThreads() const { return schedule_.profiledThreads(); }
   const std::vector<StageTime>& stageTimes(int thread) const {
@@ -105,6 +104,9 @@ class MpmSolver final : public Solver<D> {
     Real speed = 0, signal = 0;
     bool finite = true;
   };
+  // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
+  template <class Transfer, class Kernel>
+  Real moveParticle(int p, PartMeasure& m, Real dt);
   // Measures particle p into its part's maxima and returns its energy.
   Real measure(int p, PartMeasure& m) const;
   void measureParticles();  // the speeds and energy of the current state

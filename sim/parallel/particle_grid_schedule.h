@@ -58,7 +58,6 @@ class ParticleGridSchedule final : public LoopRunner {
   ParticleGridSchedule(const GridGeometry<D>& grid, int particles, bool force_field, int threads);
 
   void setThreads(int threads) { threads_ = threads > 0 ? threads : omp_get_max_threads(); }
-  int threads() const { return threads_; }
   // The parts of the next step for the thread count now (step() calls it too); returns how many.
   int prepare();
   int parts() const { return team_.parts(); }
@@ -94,8 +93,9 @@ class ParticleGridSchedule final : public LoopRunner {
   void scatterAlone(const std::vector<Vec<D>>& x, F&& f);
   void gridStageDone();
 
-  // f(k) for every node of the active box: independent items, in parallel for large scenes, outside
-  // step(). The schedule is also the LoopRunner of other independent loops (parallelFor).
+  // f(k) for every node of the active box: independent items, in parallel for large scenes. The
+  // schedule is also the LoopRunner of other independent loops (parallelFor). Both open a meeting
+  // of their own: never inside a shared step's body.
   template <class F>
   void forActiveNodes(const GridGeometry<D>& grid, F&& f);
   void run(int count, void (*body)(void*, int, int), void* context) override;
@@ -182,7 +182,7 @@ void ParticleGridSchedule<D, P>::step(P& particles, bool shared, Body&& body) {
 template <int D, class P>
 template <class F>
 void ParticleGridSchedule<D, P>::scatter(F&& f) {
-  team_.forEachPart("rasterise", [&](int part) {
+  team_.forEachPart("scatter", [&](int part) {
     const auto [first, last] = binning_.partRows(part);
     for (int row = first; row < last; ++row) {
       PartialGrid& g = partial_[binning_.rowColour(row)];

@@ -31,7 +31,7 @@ void RowBinning<D>::setParts(int parts) {
 template <int D>
 void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<Vec<D>>& x) {
   const int n = particles_;
-  const int rows = static_cast<int>(row_start_.size()) - 1;
+  const int rows = this->rows();
   const Real inv_h = 1 / grid_.h;
   const auto countsOf = [&](int range) {
     return &range_count_[static_cast<size_t>(range) * block_count_];
@@ -147,7 +147,7 @@ void RowBinning<D>::findActiveNodes() {
 
 template <int D>
 void RowBinning<D>::splitRows(const WorkShares& shares) {
-  const int rows = static_cast<int>(row_start_.size()) - 1;
+  const int rows = this->rows();
   const int n = particles_;
   part_rows_[0] = 0;
   int row = 0;
@@ -173,7 +173,7 @@ int RowBinning<D>::rowColour(int row) const {
 
 template <int D>
 typename RowBinning<D>::RowCells RowBinning<D>::rowCellsAt(int o) const {
-  const int rows = static_cast<int>(row_start_.size()) - 1;
+  const int rows = this->rows();
   // The last row whose first place is o or before (o = the particle count: an empty part's end).
   int row = std::min(rows - 1,
                      static_cast<int>(std::upper_bound(row_start_.begin(), row_start_.end(), o) -

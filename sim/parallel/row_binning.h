@@ -109,7 +109,8 @@ class RowBinning {
   // range_first/last_block_[r] bound the blocks its particles are in.
   std::vector<int> range_count_, range_cursor_;
   std::vector<IVec<D>> range_first_block_, range_last_block_;
-  IVec<D> binned_first_block_, binned_last_block_;  // the last binning's box of blocks
+  // The last binning's box of blocks.
+  IVec<D> binned_first_block_ = IVec<D>::Zero(), binned_last_block_ = IVec<D>::Constant(-1);
   bool must_bin_ = true;
   long binnings_ = 0;
   NodeBox<D> active_, updated_;

@@ -6,12 +6,12 @@
 #include <random>
 
 #include "sim/core/errors.h"
-#include "sim/scene/json_fields.h"
 #include "sim/core/krylov.h"
-#include "sim/mpm/mpm_solver.h"
 #include "sim/mpm/implicit_solve.h"
-#include "sim/scene/sampling.h"
+#include "sim/mpm/mpm_solver.h"
 #include "sim/mpm/stress_differential.h"
+#include "sim/scene/json_fields.h"
+#include "sim/scene/sampling.h"
 
 using namespace snowsim;
 

@@ -292,10 +292,11 @@ TEST(Mpm, TheGridKeepsNoMassWhereTheSnowWas) {
 }
 
 // 2D bins the particles anew once one has moved more than a cell (drift_cells,
-// sim/mpm/mpm_solver.h) beyond its row's cells, and not before. A ball translating along y, sampled
-// 2 x 2 per cell (a quarter and three quarters into each cell), must be binned anew each time it
-// has moved 1 to 1.5 cells since the last binning: 2 cells less how far into its row's last cell
-// the particle nearest the row's end sits. Allowing two cells, or none, would give 2-2.5 or 0-0.5.
+// sim/parallel/row_binning.h) beyond its row's cells, and not before. A ball translating along y,
+// sampled 2 x 2 per cell (a quarter and three quarters into each cell), must be binned anew each
+// time it has moved 1 to 1.5 cells since the last binning: 2 cells less how far into its row's last
+// cell the particle nearest the row's end sits. Allowing two cells, or none, would give 2-2.5 or
+// 0-0.5.
 TEST(Mpm, ParticlesAreBinnedAnewOnceOneMovesMoreThanACellBeyondItsRow) {
   for (const double vy : {2.0, -2.0}) {
     Json j = baseScene();

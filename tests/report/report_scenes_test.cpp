@@ -7,8 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "sim/report/density_hybrid.h"
 #include "sim/io/ply.h"
+#include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
 #include "sim/simulation.h"
 

@@ -46,7 +46,7 @@ void checkStagesMeetInOrder(int parts, bool parallel = true) {
 
 TEST(Team, StagesOfASharedTaskMeetInOrder) {
   checkStagesMeetInOrder(2);
-  checkStagesMeetInOrder(3);  // more threads than this machine's two cores: they take turns
+  checkStagesMeetInOrder(3);  // more threads than cores on a 2-core machine: they take turns
   checkStagesMeetInOrder(5);  // a barrier of three rounds, whose signals form two rings in one
 }
 

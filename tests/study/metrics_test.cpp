@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "study/metrics.h"
 #include "sim/simulation.h"
+#include "study/metrics.h"
 
 namespace snowsim {
 namespace {

@@ -1,5 +1,6 @@
-// Ctrl-C and SIGTERM during a long run: the frame loop stops at the next frame, the sinks finish
-// (the MP4 gets its trailer and still plays) and snowsim exits with 128 + the signal number.
+// Ctrl-C and SIGTERM during a long run: the run stops at the end of the current step, the sinks
+// finish (the MP4 gets its trailer and still plays) and snowsim exits with 128 + the signal
+// number.
 #pragma once
 
 #include <stdexcept>

@@ -93,8 +93,11 @@ void run(const RunOptions& options) {
   const int frames = scene.frameCount();
   Progress progress(frames);
   int written = 0;
-  for (int frame = 0; frame <= frames && !interruptSignal(); ++frame, ++written) {
-    simulation->advanceTo(std::min(scene.duration, frame / scene.fps));
+  // A signal stops the run at the end of the current step: the frame it interrupts is not
+  // written, every earlier one is complete.
+  const auto interrupted = [] { return interruptSignal() != 0; };
+  for (int frame = 0; frame <= frames && !interrupted(); ++frame, ++written) {
+    if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), interrupted)) break;
     const Snapshot snapshot = simulation->snapshot(frame);
     for (auto& sink : sinks) sink->write(snapshot);
     progress.update(frame, simulation->time());

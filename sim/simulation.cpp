@@ -21,9 +21,9 @@ class SimulationOf final : public Simulation {
       solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));
   }
 
-  void advanceTo(double target) override {
+  bool advanceTo(double target, const std::function<bool()>& stop_requested) override {
     try {
-      solver_->advanceTo(target, scene_.dt);
+      return solver_->advanceTo(target, scene_.dt, stop_requested);
     } catch (const SimulationError& e) {
       throw SimulationError(scene_.file + ": " + e.what());
     }

@@ -2,6 +2,7 @@
 // line, the benchmarks and the tests share.
 #pragma once
 
+#include <functional>
 #include <memory>
 
 #include "sim/core/krylov_result.h"
@@ -14,9 +15,10 @@ class Simulation {
  public:
   virtual ~Simulation() = default;
 
-  // Steps until the simulated time reaches t (the last step is shortened to land on it).
-  // Throws SimulationError when the state stops being finite.
-  virtual void advanceTo(double t) = 0;
+  // Steps until the simulated time reaches t (the last step is shortened to land on it). Checks
+  // stop_requested() before each step and returns false, short of t, once it says so. Throws
+  // SimulationError when the state stops being finite.
+  virtual bool advanceTo(double t, const std::function<bool()>& stop_requested = {}) = 0;
 
   virtual Snapshot snapshot(int frame) const = 0;
   virtual double time() const = 0;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 
 #include "sim/core/grid.h"
@@ -28,15 +29,18 @@ class Solver {
     checkDivergence(dt);
   }
   // Steps of at most max_dt, and at most what stability allows, until the time reaches target;
-  // the last step is shortened to land on it.
-  void advanceTo(Real target, Real max_dt) {
+  // the last step is shortened to land on it. Returns false, short of the target, if
+  // stop_requested() says so before a step.
+  bool advanceTo(Real target, Real max_dt, const std::function<bool()>& stop_requested = {}) {
     while (target - time_ > 1e-9 * max_dt) {
+      if (stop_requested && stop_requested()) return false;
       Real dt = std::min(max_dt, stableTimeStep());
       // Land exactly on the target instead of leaving a sliver for one more step.
       if (target - time_ - dt < 1e-6 * dt) dt = target - time_;
       step(dt);
     }
     time_ = std::max(time_, target);
+    return true;
   }
   long steps() const { return steps_; }
   Real time() const { return time_; }

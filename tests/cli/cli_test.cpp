@@ -273,6 +273,40 @@ TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
   EXPECT_EQ(video.frames, summary["frames"].get<int>());
 }
 
+// A signal stops the run at the end of the current step, not at the next frame: here a frame is
+// 2 s of simulated snow, many seconds of stepping, and the run must end long before the next one.
+TEST(Cli, SigtermStopsWithinAFewStepsNotAtTheNextFrame) {
+  const fs::path out = freshDir("interrupted_mid_frame");
+  const std::string binary = SNOWSIM_BINARY, scene_file = scene("mpm_snowball_wall");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execl(binary.c_str(), binary.c_str(), "run", scene_file.c_str(), "-o", out.c_str(), "--set",
+          "time.duration=1000", "--set", "time.fps=0.5", "--no-png", "--no-mp4",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  for (int i = 0; i < 200 && !fs::exists(out / "frame_00000.ply"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const auto signalled = std::chrono::steady_clock::now();
+  kill(child, SIGTERM);
+  int status = 0;
+  waitpid(child, &status, 0);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  // Stepping on to the next frame takes over ten seconds on a 2-core machine; a step, milliseconds.
+  EXPECT_LT(seconds, 5.0);
+  const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["frames"], 1);
+  EXPECT_GT(summary["steps"].get<long>(), 0);
+  EXPECT_LT(summary["simulated_time"].get<double>(), 2.0);
+  EXPECT_FALSE(fs::exists(out / "frame_00001.ply"));
+}
+
 TEST(Cli, RenderRedrawsSavedFrames) {
   const fs::path out = freshDir("render");
   ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +

@@ -11,6 +11,7 @@
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
 #include "app/options.h"
+#include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
 #include "render/scene_render.h"
@@ -46,24 +47,6 @@ class PlySink final : public FrameSink {
   std::string dir_;
 };
 
-// One line redrawn in place on a terminal, nothing otherwise.
-class Progress {
- public:
-  explicit Progress(int total) : total_(total), enabled_(isatty(STDERR_FILENO)) {}
-  void update(int frame, double time) {
-    if (!enabled_) return;
-    std::fprintf(stderr, "\rframe %d/%d  t = %.3f s", frame, total_, time);
-    std::fflush(stderr);
-  }
-  void done() {
-    if (enabled_) std::fprintf(stderr, "\n");
-  }
-
- private:
-  int total_;
-  bool enabled_;
-};
-
 void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
@@ -91,16 +74,20 @@ void run(const RunOptions& options) {
   catchInterrupts();
   const auto start = std::chrono::steady_clock::now();
   const int frames = scene.frameCount();
-  Progress progress(frames);
+  Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
   int written = 0;
   // A signal stops the run at the end of the current step: the frame it interrupts is not
   // written, every earlier one is complete.
   const auto interrupted = [] { return interruptSignal() != 0; };
+  const auto betweenSteps = [&] {
+    progress.step(*simulation);
+    return interrupted();
+  };
   for (int frame = 0; frame <= frames && !interrupted(); ++frame, ++written) {
-    if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), interrupted)) break;
+    if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), betweenSteps)) break;
     const Snapshot snapshot = simulation->snapshot(frame);
     for (auto& sink : sinks) sink->write(snapshot);
-    progress.update(frame, simulation->time());
+    progress.frame(frame, *simulation);
   }
   for (auto& sink : sinks) sink->finish();
   progress.done();

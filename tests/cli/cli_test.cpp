@@ -53,6 +53,14 @@ std::string scene(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
 }
 
+// Whether every line of a run's output is a per-frame progress line: nothing else to say.
+bool onlyProgress(const std::string& output) {
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("frame ", 0) != 0) return false;
+  return true;
+}
+
 TEST(Cli, RunWritesPlyFramesAndASummary) {
   const fs::path out = freshDir("ok");
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
@@ -69,7 +77,7 @@ TEST(Cli, RunWritesPlyFramesAndASummary) {
   EXPECT_DOUBLE_EQ(summary["simulated_time"].get<double>(), 0.1);
   EXPECT_TRUE(summary.contains("wall_time"));
   EXPECT_FALSE(summary.contains("implicit_solves")) << "no semi-implicit solves to count";
-  EXPECT_EQ(r.output, "") << "quiet when not on a terminal";
+  EXPECT_TRUE(onlyProgress(r.output)) << "only a line per frame off a terminal:\n" << r.output;
 }
 
 // A semi-implicit run counts its linear solves in run.json, and says so when some stopped at
@@ -84,7 +92,7 @@ TEST(Cli, RunCountsTheSemiImplicitSolves) {
   auto solves = nlohmann::json::parse(std::ifstream(out / "run.json"))["implicit_solves"];
   EXPECT_GT(solves["solves"].get<int>(), 0);
   EXPECT_EQ(solves["unconverged"], 0);
-  EXPECT_EQ(r.output, "");
+  EXPECT_TRUE(onlyProgress(r.output)) << r.output;
 
   r = runSnowsim(run + " --set mpm.max_iterations=2");
   ASSERT_EQ(r.code, 0) << r.output;
@@ -305,6 +313,23 @@ TEST(Cli, SigtermStopsWithinAFewStepsNotAtTheNextFrame) {
   EXPECT_GT(summary["steps"].get<long>(), 0);
   EXPECT_LT(summary["simulated_time"].get<double>(), 2.0);
   EXPECT_FALSE(fs::exists(out / "frame_00001.ply"));
+}
+
+// Off a terminal (a log, a cluster job) a run reports each frame on a line of its own, with the
+// simulated time, the steps, the step size and the time left.
+TEST(Cli, OffATerminalEachFrameGetsAProgressLine) {
+  const fs::path out = freshDir("progress");
+  const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                              " --set time.duration=0.04 --no-png --no-mp4");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("frame 0/2  t = 0.000 / 0.040 s  0 steps"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("frame 1/2  t = 0.020 / 0.040 s  20 steps"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("dt 1.0e-03 s  ETA"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("frame 2/2  t = 0.040 / 0.040 s  40 steps"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find('\r'), std::string::npos) << "no terminal redraws in a log";
 }
 
 TEST(Cli, RenderRedrawsSavedFrames) {

@@ -1,0 +1,49 @@
+#include "app/progress.h"
+
+#include <cmath>
+
+namespace snowsim {
+
+Progress::Progress(int frames, double duration, bool terminal, std::FILE* out)
+    : frames_(frames), duration_(duration), terminal_(terminal), out_(out) {}
+
+std::string Progress::line(int frame, const Simulation& simulation) {
+  const long steps = simulation.steps();
+  const double time = simulation.time(), wall = elapsed();
+  if (steps > steps_then_) dt_ = (time - time_then_) / double(steps - steps_then_);
+  steps_then_ = steps;
+  time_then_ = time;
+  char text[200];
+  int n =
+      std::snprintf(text, sizeof text, "frame %d/%d  t = %.3f / %.3f s  %ld steps, %.0f a second",
+                    frame, frames_, time, duration_, steps, wall > 0 ? steps / wall : 0.0);
+  if (dt_ > 0) n += std::snprintf(text + n, sizeof text - n, "  dt %.1e s", dt_);
+  // The rest at the simulated-per-wall rate so far: a rough guess while the step size changes.
+  if (time > 0 && time < duration_)
+    std::snprintf(text + n, sizeof text - n, "  ETA %.0f s", (duration_ - time) * wall / time);
+  return text;
+}
+
+void Progress::step(const Simulation& simulation) {
+  if (!terminal_ || Clock::now() - drawn_ < std::chrono::milliseconds(250)) return;
+  drawn_ = Clock::now();
+  std::fprintf(out_, "\r%s\033[K", line(frame_, simulation).c_str());
+  std::fflush(out_);
+}
+
+void Progress::frame(int frame, const Simulation& simulation) {
+  frame_ = frame;
+  if (terminal_) {
+    drawn_ = Clock::now();
+    std::fprintf(out_, "\r%s\033[K", line(frame, simulation).c_str());
+  } else {
+    std::fprintf(out_, "%s\n", line(frame, simulation).c_str());
+  }
+  std::fflush(out_);
+}
+
+void Progress::done() {
+  if (terminal_) std::fprintf(out_, "\n");
+}
+
+}  // namespace snowsim

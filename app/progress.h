@@ -1,0 +1,44 @@
+// A run's progress on stderr: on a terminal, one line redrawn between steps at most four times a
+// second; elsewhere (a log, a cluster job), one line per frame written.
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "sim/simulation.h"
+
+namespace snowsim {
+
+class Progress {
+ public:
+  // frames: the last frame's number; duration: the simulated seconds the run ends at.
+  Progress(int frames, double duration, bool terminal, std::FILE* out = stderr);
+
+  // Between steps: redraws the terminal line if a quarter of a second has passed.
+  void step(const Simulation& simulation);
+  // After frame `frame` was written.
+  void frame(int frame, const Simulation& simulation);
+  void done();
+
+  // "frame 3/50  t = 0.060 / 1.000 s  1234 steps, 5210 a second  dt 1.2e-04 s  ETA 12 s"
+  std::string line(int frame, const Simulation& simulation);
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  double elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+
+  int frames_;
+  double duration_;
+  bool terminal_;
+  std::FILE* out_;
+  Clock::time_point start_ = Clock::now();
+  Clock::time_point drawn_ = Clock::now();
+  int frame_ = 0;  // the last frame written
+  // Where the last line was taken: the step size is the simulated time per step since then.
+  long steps_then_ = 0;
+  double time_then_ = 0;
+  double dt_ = 0;
+};
+
+}  // namespace snowsim

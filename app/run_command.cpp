@@ -103,6 +103,10 @@ void run(const RunOptions& options) {
                             {"particles", simulation->particleCount()},
                             {"frames", written},
                             {"fps", scene.fps}};
+  if (simulation->steps() > 0)
+    summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
+                            {"largest", simulation->chosenSteps().largest},
+                            {"mean", simulation->time() / double(simulation->steps())}};
   if (const SolveTally solves = simulation->implicitSolves(); solves.solves > 0) {
     summary["implicit_solves"] = {{"solves", solves.solves},
                                   {"mean_iterations", double(solves.iterations) / solves.solves},

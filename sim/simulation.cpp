@@ -53,6 +53,7 @@ class SimulationOf final : public Simulation {
 
   double time() const override { return solver_->time(); }
   long steps() const override { return solver_->steps(); }
+  StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particles().size(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
 

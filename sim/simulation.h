@@ -8,6 +8,7 @@
 #include "sim/core/krylov_result.h"
 #include "sim/core/snapshot.h"
 #include "sim/scene/scene.h"
+#include "sim/solver.h"
 
 namespace snowsim {
 
@@ -23,6 +24,8 @@ class Simulation {
   virtual Snapshot snapshot(int frame) const = 0;
   virtual double time() const = 0;
   virtual long steps() const = 0;
+  // The smallest and largest step the time-step policy chose (none before the first step).
+  virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
 };

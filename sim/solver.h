@@ -14,6 +14,10 @@
 
 namespace snowsim {
 
+struct StepSizes {
+  double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+};
+
 template <int D>
 class Solver {
  public:
@@ -35,6 +39,8 @@ class Solver {
     while (target - time_ > 1e-9 * max_dt) {
       if (stop_requested && stop_requested()) return false;
       Real dt = std::min(max_dt, stableTimeStep());
+      chosen_.smallest = std::min(chosen_.smallest, dt);
+      chosen_.largest = std::max(chosen_.largest, dt);
       // Land exactly on the target instead of leaving a sliver for one more step.
       if (target - time_ - dt < 1e-6 * dt) dt = target - time_;
       step(dt);
@@ -44,6 +50,8 @@ class Solver {
   }
   long steps() const { return steps_; }
   Real time() const { return time_; }
+  // The smallest and largest steps advanceTo chose, before any was shortened to land on a target.
+  const StepSizes& chosenSteps() const { return chosen_; }
 
   // The largest time step the solver's stability allows now (infinity when it has no limit).
   virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
@@ -65,6 +73,7 @@ class Solver {
  private:
   long steps_ = 0;
   Real time_ = 0;
+  StepSizes chosen_;
 };
 
 // The scene's grid and gravity in the simulation's dimension.

@@ -332,6 +332,30 @@ TEST(Cli, OffATerminalEachFrameGetsAProgressLine) {
   EXPECT_EQ(r.output.find('\r'), std::string::npos) << "no terminal redraws in a log";
 }
 
+// run.json gives the step sizes the policy chose: one fixed step for the report's method, a range
+// for MPM's adaptive step, which shrinks as the ball lands and hardens.
+TEST(Cli, RunRecordsTheStepSizes) {
+  const fs::path fixed = freshDir("steps_fixed"), adaptive = freshDir("steps_adaptive");
+  ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + fixed.string() +
+                       " --set time.duration=0.05 --no-png --no-mp4 --no-ply")
+                .code,
+            0);
+  const auto report = nlohmann::json::parse(std::ifstream(fixed / "run.json"))["step_size"];
+  EXPECT_DOUBLE_EQ(report["smallest"].get<double>(), 0.001);
+  EXPECT_DOUBLE_EQ(report["largest"].get<double>(), 0.001);
+  EXPECT_NEAR(report["mean"].get<double>(), 0.001, 1e-12);
+
+  ASSERT_EQ(runSnowsim("run " + scene("mpm_snowball_wall") + " -o " + adaptive.string() +
+                       " --set time.duration=0.2 --no-png --no-mp4 --no-ply")
+                .code,
+            0);
+  const auto summary = nlohmann::json::parse(std::ifstream(adaptive / "run.json"));
+  const auto mpm = summary["step_size"];
+  EXPECT_LT(mpm["smallest"].get<double>(), 0.5 * mpm["largest"].get<double>());
+  EXPECT_LE(mpm["smallest"].get<double>(), mpm["mean"].get<double>());
+  EXPECT_NEAR(mpm["mean"].get<double>(), 0.2 / summary["steps"].get<double>(), 1e-12);
+}
+
 TEST(Cli, RenderRedrawsSavedFrames) {
   const fs::path out = freshDir("render");
   ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +

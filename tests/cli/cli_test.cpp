@@ -248,28 +248,46 @@ TEST(Cli, RunEncodesItsFramesIntoAnMp4ThatFfprobeReads) {
   EXPECT_FALSE(fs::exists(out / "snowball_drop.mp4.part"));
 }
 
+// Starts `snowsim ARGS...` in a child process, its stderr discarded; a test signals and reaps it.
+pid_t startSnowsim(std::vector<std::string> args) {
+  args.insert(args.begin(), SNOWSIM_BINARY);
+  std::vector<char*> argv;
+  for (std::string& arg : args) argv.push_back(arg.data());
+  argv.push_back(nullptr);
+  const pid_t child = fork();
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
+// After `path` exists, one more second, then the signal: returns the seconds until the child
+// exited and its wait status.
+std::pair<double, int> signalOnceWritten(pid_t child, const fs::path& path, int sig) {
+  for (int i = 0; i < 200 && !fs::exists(path); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const auto signalled = std::chrono::steady_clock::now();
+  kill(child, sig);
+  int status = 0;
+  waitpid(child, &status, 0);
+  return {std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count(),
+          status};
+}
+
 // SIGTERM in the middle of a long run: the video so far is finalised and plays, run.json says
 // how many frames it holds, the exit code is 128 + 15.
 TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
   const fs::path out = freshDir("interrupted");
-  const std::string binary = SNOWSIM_BINARY, scene_file = scene("snowball_drop");
-  const pid_t child = fork();
+  const pid_t child = startSnowsim({"run", scene("snowball_drop"), "-o", out.string(), "--set",
+                                    "time.duration=1000", "--no-ply", "--no-png", "--width", "160",
+                                    "--height", "120"});
   ASSERT_GE(child, 0);
-  if (child == 0) {
-    freopen("/dev/null", "w", stderr);
-    execl(binary.c_str(), binary.c_str(), "run", scene_file.c_str(), "-o", out.c_str(), "--set",
-          "time.duration=1000", "--no-ply", "--no-png", "--width", "160", "--height", "120",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
   // Let it encode some frames first (x264 holds its first frames back, so the file stays small).
   const fs::path part = out / "snowball_drop.mp4.part";
-  for (int i = 0; i < 200 && !fs::exists(part); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  std::this_thread::sleep_for(std::chrono::seconds(1));
-  kill(child, SIGTERM);
-  int status = 0;
-  waitpid(child, &status, 0);
+  const int status = signalOnceWritten(child, part, SIGTERM).second;
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
   EXPECT_FALSE(fs::exists(part));
@@ -285,25 +303,11 @@ TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
 // 2 s of simulated snow, many seconds of stepping, and the run must end long before the next one.
 TEST(Cli, SigtermStopsWithinAFewStepsNotAtTheNextFrame) {
   const fs::path out = freshDir("interrupted_mid_frame");
-  const std::string binary = SNOWSIM_BINARY, scene_file = scene("mpm_snowball_wall");
-  const pid_t child = fork();
+  const pid_t child =
+      startSnowsim({"run", scene("mpm_snowball_wall"), "-o", out.string(), "--set",
+                    "time.duration=1000", "--set", "time.fps=0.5", "--no-png", "--no-mp4"});
   ASSERT_GE(child, 0);
-  if (child == 0) {
-    freopen("/dev/null", "w", stderr);
-    execl(binary.c_str(), binary.c_str(), "run", scene_file.c_str(), "-o", out.c_str(), "--set",
-          "time.duration=1000", "--set", "time.fps=0.5", "--no-png", "--no-mp4",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  for (int i = 0; i < 200 && !fs::exists(out / "frame_00000.ply"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  std::this_thread::sleep_for(std::chrono::seconds(1));
-  const auto signalled = std::chrono::steady_clock::now();
-  kill(child, SIGTERM);
-  int status = 0;
-  waitpid(child, &status, 0);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  const auto [seconds, status] = signalOnceWritten(child, out / "frame_00000.ply", SIGTERM);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
   // Stepping on to the next frame takes over ten seconds on a 2-core machine; a step, milliseconds.

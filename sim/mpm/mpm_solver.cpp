@@ -39,8 +39,7 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
 // One step, the paper's section 4 list; the stages run on the schedule's threads.
 template <int D>
 void MpmSolver<D>::advance(Real dt) {
-  const bool semi_implicit = params_.integrator == MpmIntegrator::SemiImplicit;
-  const Real stable_dt = semi_implicit ? advectionTimeStep() : cflTimeStep();
+  const Real stable_dt = semiImplicit() ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
     step_when_exceeded_ = this->steps();
@@ -55,7 +54,7 @@ void MpmSolver<D>::advance(Real dt) {
 template <int D>
 template <class Transfer, class Kernel>
 void MpmSolver<D>::stepWith(Real dt) {
-  const bool semi_implicit = params_.integrator == MpmIntegrator::SemiImplicit;
+  const bool semi_implicit = semiImplicit();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
   // stages each meet on their own; the explicit stages share the team's threads.
   schedule_.step(particles_, !semi_implicit, [&] {
@@ -338,7 +337,7 @@ Real MpmSolver<D>::advectionTimeStep() const {
 template <int D>
 Real MpmSolver<D>::stableTimeStep() const {
   if (!params_.adaptive_dt) return std::numeric_limits<Real>::infinity();
-  return params_.integrator == MpmIntegrator::SemiImplicit ? advectionTimeStep() : cflTimeStep();
+  return semiImplicit() ? advectionTimeStep() : cflTimeStep();
 }
 
 template <int D>

@@ -66,6 +66,7 @@ class MpmSolver final : public Solver<D> {
   using Schedule = ParticleGridSchedule<D, MpmParticles<D>>;
   using PartialGrid = typename Schedule::PartialGrid;
 
+  bool semiImplicit() const { return params_.integrator == MpmIntegrator::SemiImplicit; }
   void beforeFirstStep() override;
   void advance(Real dt) override;
   void checkDivergence(Real dt) const override;

@@ -4,6 +4,7 @@
 
 #include "sim/core/bspline.h"
 #include "sim/core/errors.h"
+#include "sim/solver.h"
 
 namespace snowsim {
 
@@ -48,9 +49,8 @@ ReferenceState<D> makeReferenceState(const Scene& scene, const Particles<D>& par
   s.F_E.assign(n, Mat<D>::Identity());
   s.C.assign(n, Mat<D>::Zero());
   s.J_P.assign(n, 1);
-  IVec<D> cells;
-  for (int a = 0; a < D; ++a) cells[a] = scene.cells[a], s.g[a] = scene.gravity[a];
-  s.grid = GridGeometry<D>(cells, scene.cell_size);
+  s.g = sceneGravity<D>(scene);
+  s.grid = sceneGrid<D>(scene);
   s.grid_m.assign(s.grid.nodeCount(), 0);
   s.grid_v.assign(s.grid.nodeCount(), Vec<D>::Zero());
   s.material = scene.material;

@@ -18,36 +18,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/cli/run_snowsim.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code;
-  std::string output;  // stdout and stderr together
-};
-
-// Runs a shell command line, e.g. a snowsim binary with its arguments.
-Result runCommand(const std::string& command_line) {
-  const std::string command = command_line + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string output;
-  std::array<char, 4096> buffer;
-  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
-}
-
-Result runSnowsim(const std::string& args) {
-  return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
-}
-
-fs::path freshDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("snowsim_cli_" + std::to_string(getpid())) / name;
-  fs::remove_all(dir);
-  return dir;
-}
+using snowsim_test::freshDir;
+using snowsim_test::Result;
+using snowsim_test::runCommand;
+using snowsim_test::runSnowsim;
 
 std::string scene(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";

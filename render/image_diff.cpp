@@ -70,15 +70,24 @@ bool looksAntiAliased(const Image& image, const Image& other, int x, int y) {
 
 }  // namespace
 
-ImageDiff diffImages(const Image& a, const Image& b, double threshold) {
+bool maskExcludes(const std::uint8_t* mask_pixel) {
+  return brightness(mask_pixel) < 127.5;
+}
+
+ImageDiff diffImages(const Image& a, const Image& b, double threshold, const Image* mask) {
   ImageDiff result;
   result.visual = Image{a.width, a.height, std::vector<std::uint8_t>(a.rgba.size())};
   const double limit = threshold * threshold;  // distances compared as normalised squares
   for (int y = 0; y < a.height; ++y)
     for (int x = 0; x < a.width; ++x) {
+      std::uint8_t* out = &result.visual.rgba[4 * (size_t(y) * a.width + x)];
+      if (mask && maskExcludes(mask->pixel(x, y))) {
+        out[0] = 170, out[1] = 200, out[2] = 240, out[3] = 255;
+        continue;
+      }
+      ++result.compared;
       const double distance = yiqDistance(a.pixel(x, y), b.pixel(x, y)) / kMaxDistance;
       result.largest = std::max(result.largest, std::sqrt(distance));
-      std::uint8_t* out = &result.visual.rgba[4 * (size_t(y) * a.width + x)];
       if (distance > limit) {
         const bool edge = looksAntiAliased(a, b, x, y) || looksAntiAliased(b, a, x, y);
         (edge ? result.anti_aliased : result.differing) += 1;
@@ -88,8 +97,7 @@ ImageDiff diffImages(const Image& a, const Image& b, double threshold) {
         out[0] = out[1] = out[2] = v, out[3] = 255;
       }
     }
-  result.share =
-      a.width * a.height > 0 ? double(result.differing) / (double(a.width) * a.height) : 0;
+  result.share = result.compared > 0 ? double(result.differing) / double(result.compared) : 0;
   return result;
 }
 

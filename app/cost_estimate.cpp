@@ -38,11 +38,11 @@ std::string roughDuration(double seconds) {
   return inUnits(seconds, {{5400, 3600, "%.1f h"}, {90, 60, "%.0f min"}, {-INFINITY, 1, "%.2g s"}});
 }
 
-CostEstimate::CostEstimate(const Scene& scene, const Simulation& simulation)
+CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& start)
     : name_(scene.name),
       duration_(scene.duration),
-      particles_(simulation.particleCount()),
-      initial_step_(std::min(scene.dt, simulation.stepLimit().step)) {
+      particles_(particles),
+      initial_step_(std::min(scene.dt, start.step)) {
   char grid[96];
   int n = std::snprintf(grid, sizeof grid, "%d", scene.cells[0]);
   for (int a = 1; a < scene.dimension; ++a)

@@ -16,12 +16,11 @@ class CostEstimate {
   // Steps timed for the rate, after the first (which also sets up the solver's arrays and pages).
   static constexpr int measured_steps = 10;
 
-  // Before the first step, which is time.dt or the stable step, whichever is smaller.
-  CostEstimate(const Scene& scene, const Simulation& simulation);
+  // Before the first step, which is time.dt or the stable step of `start`, whichever is smaller.
+  CostEstimate(const Scene& scene, int particles, const StepLimit& start);
 
-  // The step the run starts with, and the particle-steps of its duration at that step.
+  // The step the run starts with.
   double initialStep() const { return initial_step_; }
-  double particleSteps() const { return particle_steps_; }
 
   // "snowball_drop: 25 particles, 10 x 12 cells of 0.01 m; 1 s simulated at a first step of
   // 0.001 s: about 1000 steps, 25 thousand particle-steps"

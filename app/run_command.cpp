@@ -98,8 +98,9 @@ void run(const RunOptions& options) {
   catchInterrupts();
   const int frames = scene.frameCount();
   Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
-  CostEstimate estimate(scene, *simulation);
-  StepWatch step_watch(scene, estimate.initialStep(), simulation->stepLimit());
+  const StepLimit start_limit = simulation->stepLimit();
+  CostEstimate estimate(scene, simulation->particleCount(), start_limit);
+  StepWatch step_watch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());
   int written = 0;
   // A signal stops the run at the end of the current step: the frame it interrupts is not

@@ -33,7 +33,8 @@ struct RunOptions {
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
   double scale = 1;     // resolution factor (app/scale.h)
-  int threads = 0;      // the solver's threads; 0: the OpenMP default
+  bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
+  int threads = 0;             // the solver's threads; 0: the OpenMP default
   bool ply = true;
   RenderOptions render;
 };
@@ -65,6 +66,19 @@ nlohmann::json stageTimes(const Simulation& simulation, const StageClock& app, d
   return stages;
 }
 
+// --estimate: the cost before the run and the time from its first steps; writes nothing.
+void estimateOnly(const Scene& scene, int threads) {
+  const auto simulation = makeSimulation(scene, threads);
+  CostEstimate estimate(scene, simulation->particleCount(), simulation->stepLimit());
+  std::fprintf(stderr, "%s\n", estimate.before().c_str());
+  std::string measured;
+  simulation->advanceTo(scene.duration, [&] {
+    measured = estimate.afterStep(*simulation);
+    return !measured.empty();
+  });
+  if (!measured.empty()) std::fprintf(stderr, "%s\n", measured.c_str());
+}
+
 void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
@@ -80,6 +94,7 @@ void run(const RunOptions& options) {
                      " runs the report's method, which has no plastic compression; allowed: "
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
+  if (options.estimate_only) return estimateOnly(scene, options.threads);
   prepareOutputDirectory(options.out);
   const auto start = std::chrono::steady_clock::now();
   StageClock clock;  // this thread's stages; the solver times its own
@@ -184,6 +199,9 @@ void addRunCommand(CLI::App& app) {
                   "Resolution: S times the cells along each axis, cells 1/S the size, the same "
                   "domain and bodies (about S^D times the particles); time.dt and the scene's "
                   "sphere radius follow the cell (docs/scene-format.md)");
+  cmd->add_flag("--estimate", options->estimate_only,
+                "Print the cost and time estimate from the first 11 steps, then stop; writes "
+                "nothing");
   addThreadsOption(*cmd, options->threads);
   addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);

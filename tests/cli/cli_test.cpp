@@ -223,6 +223,21 @@ TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
       << r.output;
   EXPECT_NE(r.output.find("particle-steps a second over steps 2-11"), std::string::npos)
       << r.output;
+
+  // --estimate stops there and writes nothing.
+  const fs::path none = freshDir("estimate_only");
+  const Result e = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
+                              " --estimate --scale 2");
+  ASSERT_EQ(e.code, 0) << e.output;
+  EXPECT_NE(e.output.find("snowball_drop: 96 particles, 20 x 24 cells of 0.005 m; 1 s "
+                          "simulated at a first step of 0.0005 s: about 2000 steps, 192 thousand "
+                          "particle-steps"),
+            std::string::npos)
+      << e.output;
+  EXPECT_NE(e.output.find("snowball_drop: estimate: the steps take about "), std::string::npos)
+      << e.output;
+  EXPECT_EQ(e.output.find("frame "), std::string::npos) << e.output;
+  EXPECT_FALSE(fs::exists(none));
 }
 
 // run.json says where the wall time went: the solver's stages and the main thread's, each a

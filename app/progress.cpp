@@ -46,4 +46,10 @@ void Progress::done() {
   if (terminal_) std::fprintf(out_, "\n");
 }
 
+void Progress::note(const std::string& text) {
+  // On a terminal the progress line is cleared first and drawn again at the next step.
+  std::fprintf(out_, "%s%s\n", terminal_ ? "\r\033[K" : "", text.c_str());
+  std::fflush(out_);
+}
+
 }  // namespace snowsim

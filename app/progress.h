@@ -20,6 +20,8 @@ class Progress {
   // After frame `frame` was written.
   void frame(int frame, const Simulation& simulation);
   void done();
+  // A line of its own (an estimate, a warning), kept apart from the redrawn progress line.
+  void note(const std::string& text);
 
   // "frame 3/50  t = 0.060 / 1.000 s  1234 steps, 5210 a second  dt 1.2e-04 s  ETA 12 s"
   std::string line(int frame, const Simulation& simulation);

@@ -71,8 +71,9 @@ VideoSettings RenderOptions::videoSettings(double scene_fps) const {
 }
 
 RenderSink::RenderSink(const RenderSettings& settings, std::string png_dir,
-                       const std::string& mp4_path, const VideoSettings& video)
+                       const std::string& mp4_path, const VideoSettings& video, StageClock* clock)
     : png_dir_(std::move(png_dir)),
+      clock_(clock),
       renderer_(settings),
       video_(mp4_path.empty() ? nullptr
                               : std::make_unique<VideoEncoder>(mp4_path, settings.width,
@@ -80,17 +81,22 @@ RenderSink::RenderSink(const RenderSettings& settings, std::string png_dir,
       writer_(2, video_.get()) {}
 
 void RenderSink::write(const Snapshot& snapshot) {
-  Image image = renderer_.render(snapshot);
+  Image image = [&] {
+    const StageClock::Scope time(clock_, "render");
+    return renderer_.render(snapshot);
+  }();
   std::string png_path;
   if (!png_dir_.empty()) {
     char name[32];
     std::snprintf(name, sizeof name, "/frame_%05d.png", snapshot.frame);
     png_path = png_dir_ + name;
   }
+  const StageClock::Scope time(clock_, "wait for encoding");
   writer_.write(std::move(png_path), std::move(image));  // encoded while the next frame runs
 }
 
 void RenderSink::finish() {
+  const StageClock::Scope time(clock_, "wait for encoding");
   writer_.finish();
   if (video_) video_->finish();
 }

@@ -11,6 +11,7 @@
 #include "app/frame_writer.h"
 #include "render/renderer.h"
 #include "render/video_encoder.h"
+#include "sim/core/stage_clock.h"
 
 namespace snowsim {
 
@@ -44,14 +45,17 @@ struct RenderOptions {
 
 class RenderSink final : public FrameSink {
  public:
-  // png_dir empty: no PNG sequence; mp4_path empty: no video.
+  // png_dir empty: no PNG sequence; mp4_path empty: no video. clock: if given, takes the time
+  // this thread spends rendering ("render") and waiting for the encoder thread ("wait for
+  // encoding", when it falls behind, and at the end).
   RenderSink(const RenderSettings& settings, std::string png_dir, const std::string& mp4_path,
-             const VideoSettings& video);
+             const VideoSettings& video, StageClock* clock = nullptr);
   void write(const Snapshot& snapshot) override;
   void finish() override;
 
  private:
   std::string png_dir_;
+  StageClock* clock_;
   Renderer renderer_;
   std::unique_ptr<VideoEncoder> video_;
   BackgroundFrameWriter writer_;  // after video_: its thread ends before the encoder does

@@ -8,12 +8,15 @@
 #include <nlohmann/json.hpp>
 
 #include "app/commands.h"
+#include "app/cost_estimate.h"
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
 #include "app/options.h"
 #include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
+#include "app/scale.h"
+#include "app/step_watch.h"
 #include "render/scene_render.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
@@ -29,15 +32,18 @@ struct RunOptions {
   std::string out = "out";
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
-  int threads = 0;      // the solver's threads; 0: the OpenMP default
+  double scale = 1;     // resolution factor (app/scale.h)
+  bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
+  int threads = 0;             // the solver's threads; 0: the OpenMP default
   bool ply = true;
   RenderOptions render;
 };
 
 class PlySink final : public FrameSink {
  public:
-  explicit PlySink(std::string dir) : dir_(std::move(dir)) {}
+  PlySink(std::string dir, StageClock& clock) : dir_(std::move(dir)), clock_(clock) {}
   void write(const Snapshot& s) override {
+    const StageClock::Scope time(&clock_, "write PLY");
     char name[32];
     std::snprintf(name, sizeof name, "/frame_%05d.ply", s.frame);
     writePly(dir_ + name, s);
@@ -45,7 +51,33 @@ class PlySink final : public FrameSink {
 
  private:
   std::string dir_;
+  StageClock& clock_;
 };
+
+// Where the run's wall time went, stage by stage, with each stage's share of it: the solver's
+// stages, then the main thread's own (setup, snapshots, PLY, rendering, waiting for encoding).
+nlohmann::json stageTimes(const Simulation& simulation, const StageClock& app, double wall) {
+  nlohmann::json stages = nlohmann::json::array();
+  const auto add = [&](const StageSeconds& s) {
+    stages.push_back({{"stage", s.stage}, {"seconds", s.seconds}, {"share", s.seconds / wall}});
+  };
+  for (const StageSeconds& s : simulation.stepStages()) add(s);
+  for (const StageSeconds& s : app.stages()) add(s);
+  return stages;
+}
+
+// --estimate: the cost before the run and the time from its first steps; writes nothing.
+void estimateOnly(const Scene& scene, int threads) {
+  const auto simulation = makeSimulation(scene, threads);
+  CostEstimate estimate(scene, simulation->particleCount(), simulation->stepLimit());
+  std::fprintf(stderr, "%s\n", estimate.before().c_str());
+  std::string measured;
+  simulation->advanceTo(scene.duration, [&] {
+    measured = estimate.afterStep(*simulation);
+    return !measured.empty();
+  });
+  if (!measured.empty()) std::fprintf(stderr, "%s\n", measured.c_str());
+}
 
 void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
@@ -53,6 +85,7 @@ void run(const RunOptions& options) {
   checkQualityLevel(options.quality);
   Scene scene = loadScene(options.scene, options.overrides);
   applyQuality(options.quality, options.overrides, scene);
+  if (options.scale != 1) applyScale(options.scale, options.overrides, scene);
   // Every setting is checked before anything is written.
   const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -61,31 +94,46 @@ void run(const RunOptions& options) {
                      " runs the report's method, which has no plastic compression; allowed: "
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
+  if (options.estimate_only) return estimateOnly(scene, options.threads);
   prepareOutputDirectory(options.out);
-  auto simulation = makeSimulation(scene, options.threads);
-
+  const auto start = std::chrono::steady_clock::now();
+  StageClock clock;  // this thread's stages; the solver times its own
+  std::unique_ptr<Simulation> simulation;
   FrameSinks sinks;
-  if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
-  if (options.render.png || options.render.mp4)
-    sinks.push_back(std::make_unique<RenderSink>(
-        render, options.render.png ? options.out : "",
-        options.render.mp4 ? options.out + "/" + scene.name + ".mp4" : "", video));
+  {
+    const StageClock::Scope time(&clock, "setup");
+    simulation = makeSimulation(scene, options.threads);
+    if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out, clock));
+    if (options.render.png || options.render.mp4)
+      sinks.push_back(std::make_unique<RenderSink>(
+          render, options.render.png ? options.out : "",
+          options.render.mp4 ? options.out + "/" + scene.name + ".mp4" : "", video, &clock));
+  }
 
   catchInterrupts();
-  const auto start = std::chrono::steady_clock::now();
   const int frames = scene.frameCount();
   Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
+  const StepLimit start_limit = simulation->stepLimit();
+  CostEstimate estimate(scene, simulation->particleCount(), start_limit);
+  StepWatch step_watch(scene, estimate.initialStep(), start_limit);
+  progress.note(estimate.before());
   int written = 0;
   // A signal stops the run at the end of the current step: the frame it interrupts is not
   // written, every earlier one is complete.
   const auto interrupted = [] { return interruptSignal() != 0; };
   const auto betweenSteps = [&] {
+    for (const std::string& note : {estimate.afterStep(*simulation), step_watch.check(*simulation)})
+      if (!note.empty()) progress.note(note);
     progress.step(*simulation);
     return interrupted();
   };
   for (int frame = 0; frame <= frames && !interrupted(); ++frame, ++written) {
     if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), betweenSteps)) break;
-    const Snapshot snapshot = simulation->snapshot(frame);
+    Snapshot snapshot;
+    {
+      const StageClock::Scope time(&clock, "snapshot");
+      snapshot = simulation->snapshot(frame);
+    }
     for (auto& sink : sinks) sink->write(snapshot);
     progress.frame(frame, *simulation);
   }
@@ -102,7 +150,9 @@ void run(const RunOptions& options) {
                             {"wall_time", wall},
                             {"particles", simulation->particleCount()},
                             {"frames", written},
-                            {"fps", scene.fps}};
+                            {"fps", scene.fps},
+                            {"stages", stageTimes(*simulation, clock, wall)}};
+  if (options.scale != 1) summary["scale"] = options.scale;
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},
@@ -119,6 +169,7 @@ void run(const RunOptions& options) {
                    scene.file.c_str(), solves.unconverged, solves.solves,
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
+  if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -144,14 +195,25 @@ void addRunCommand(CLI::App& app) {
                   "draft | figure | reference: integrator, time step, particles per cell and "
                   "(MPM reference) cell size from the measured speed/accuracy front "
                   "(docs/study.md); --set overrides them");
+  cmd->add_option("--scale", options->scale,
+                  "Resolution: S times the cells along each axis, cells 1/S the size, the same "
+                  "domain and bodies (about S^D times the particles); time.dt and the scene's "
+                  "sphere radius follow the cell (docs/scene-format.md)");
+  cmd->add_flag("--estimate", options->estimate_only,
+                "Print the cost and time estimate from the first 11 steps, then stop; writes "
+                "nothing");
   addThreadsOption(*cmd, options->threads);
   addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
-      "and run.json (steps, simulated time, wall time, particle count, dimension, cell size; for a "
-      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
+      "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "
+      "stage, particle count, dimension, cell size; a collapse of the time step and its cause; "
+      "for a semi-implicit run, its linear solves: count, mean and most iterations, "
+      "unconverged).\n"
+      "Before the run starts it prints the particles, the grid and the particle-steps of the "
+      "duration, and after the first steps an estimate of their time.\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
   cmd->callback([options] { run(*options); });

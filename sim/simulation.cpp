@@ -56,6 +56,15 @@ class SimulationOf final : public Simulation {
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particles().size(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
+  double stepSeconds() const override { return solver_->stepSeconds(); }
+  StepLimit stepLimit() const override { return solver_->stepLimit(); }
+  std::vector<StageSeconds> stepStages() const override {
+    std::vector<StageSeconds> stages = solver_->stageSeconds();
+    double rest = solver_->stepSeconds();
+    for (const StageSeconds& s : stages) rest -= s.seconds;
+    stages.push_back({stages.empty() ? "step" : "rest of the step", std::max(0.0, rest)});
+    return stages;
+  }
 
  private:
   Scene scene_;

@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "sim/core/krylov_result.h"
 #include "sim/core/snapshot.h"
@@ -28,6 +29,13 @@ class Simulation {
   virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
+  // The wall time of the steps so far.
+  virtual double stepSeconds() const = 0;
+  // What bounds the time step now (sim/solver.h); a look over every particle.
+  virtual StepLimit stepLimit() const = 0;
+  // Where the steps' wall time went: the solver's stages, then "rest of the step" (the step's
+  // time in no stage; "step" for a solver that times no stages). Their sum is the steps' time.
+  virtual std::vector<StageSeconds> stepStages() const = 0;
 };
 
 // Builds the particles and the solver the scene asks for, in the scene's dimension. `threads`

@@ -3,19 +3,34 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <functional>
 #include <limits>
+#include <vector>
 
 #include "sim/core/grid.h"
 #include "sim/core/krylov_result.h"
 #include "sim/core/particles.h"
 #include "sim/core/snapshot.h"
+#include "sim/core/stage_clock.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
 
 struct StepSizes {
   double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+};
+
+// What bounds the stable step now, for telling a user why it shrank: the particle whose signal
+// speed sets the step, that speed split into the particle's own speed (the step keeps it from
+// crossing a cell) and its elastic wave speed (an explicit step must resolve the wave), which
+// plastic hardening raises. A limit with no elastic term has wave_speed 0.
+struct StepLimit {
+  double step = std::numeric_limits<double>::infinity();  // the stable step (s)
+  double particle_speed = 0;                              // |v_p| (m/s)
+  double wave_speed = 0;                                  // the P-wave speed c_p (m/s)
+  double plastic_j = 1;                                   // J_P
+  double hardening = 1;  // exp(xi (1 - J_P)): the Lame parameters' factor, c_p's squared
 };
 
 template <int D>
@@ -26,11 +41,14 @@ class Solver {
   // Advances the state by dt seconds. Throws SimulationError (naming the step and the time, not
   // the scene file: the caller adds it) when the state has diverged.
   void step(Real dt) {
+    const auto start = std::chrono::steady_clock::now();
     if (steps_ == 0) beforeFirstStep();
     advance(dt);
     ++steps_;
     time_ += dt;
     checkDivergence(dt);
+    step_seconds_ +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   // Steps of at most max_dt, and at most what stability allows, until the time reaches target;
   // the last step is shortened to land on it. Returns false, short of the target, if
@@ -55,6 +73,12 @@ class Solver {
 
   // The largest time step the solver's stability allows now (infinity when it has no limit).
   virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
+  // What sets stableTimeStep() now; a look over every particle, for messages, not for each step.
+  virtual StepLimit stepLimit() const { return {stableTimeStep()}; }
+
+  // The wall time of the steps so far, and of the stages a solver times within them.
+  double stepSeconds() const { return step_seconds_; }
+  virtual std::vector<StageSeconds> stageSeconds() const { return {}; }
 
   virtual const Particles<D>& particles() const = 0;
 
@@ -74,6 +98,7 @@ class Solver {
   long steps_ = 0;
   Real time_ = 0;
   StepSizes chosen_;
+  double step_seconds_ = 0;
 };
 
 // The scene's grid and gravity in the simulation's dimension.

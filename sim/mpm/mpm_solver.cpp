@@ -66,7 +66,8 @@ void MpmSolver<D>::stepWith(Real dt) {
       accelerate<Transfer>(k, dt);
       if (!semi_implicit) collideNode(k);
     });
-    if (semi_implicit) solveImplicitVelocities(dt);  // 5 + 6: collided v*, then the solve
+    if (semi_implicit)  // 5 + 6: collided v*, then the solve
+      schedule_.timed("implicit solve", [&] { solveImplicitVelocities(dt); });
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
     schedule_.passOverParticles(
         "move particles", particles_.x, part_measures_,
@@ -338,6 +339,24 @@ template <int D>
 Real MpmSolver<D>::stableTimeStep() const {
   if (!params_.adaptive_dt) return std::numeric_limits<Real>::infinity();
   return semiImplicit() ? advectionTimeStep() : cflTimeStep();
+}
+
+template <int D>
+StepLimit MpmSolver<D>::stepLimit() const {
+  // The particle of the largest signal speed: c_p + |v_p| for the CFL step, |v_p| semi-implicit.
+  StepLimit limit{stableTimeStep()};
+  Real largest = -1;
+  for (int p = 0; p < particles_.size(); ++p) {
+    const Real speed = particles_.v[p].norm();
+    const Real wave = semiImplicit() ? 0 : pWaveSpeed(particles_.lame[p], particles_.density[p]);
+    if (speed + wave <= largest) continue;
+    largest = speed + wave;
+    limit.particle_speed = speed;
+    limit.wave_speed = wave;
+    limit.plastic_j = particles_.J_P[p];
+    limit.hardening = particles_.lame[p].mu / material_.mu0();
+  }
+  return limit;
 }
 
 template <int D>

@@ -27,6 +27,8 @@ class MpmSolver final : public Solver<D> {
   MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0);
 
   Real stableTimeStep() const override;
+  StepLimit stepLimit() const override;
+  std::vector<StageSeconds> stageSeconds() const override { return schedule_.stageSeconds(); }
   const Particles<D>& particles() const override { return particles_; }
   void describe(Snapshot& snapshot) const override;
   SolveTally implicitSolves() const override { return solves_; }

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "sim/core/grid.h"
+#include "sim/core/stage_clock.h"
 #include "sim/parallel/loop_runner.h"
 #include "sim/parallel/row_binning.h"
 #include "sim/parallel/team.h"
@@ -68,6 +69,17 @@ class ParticleGridSchedule final : public LoopRunner {
   // row's cells, and now and then stored in the sorted order (particles.forEachArray).
   template <class Body>
   void step(P& particles, bool shared, Body&& body);
+
+  // The wall time of each stage of the steps so far, in the order first met: "bin", "sort",
+  // "scatter", "grid update", the particle pass by its name, and those the physics timed().
+  const std::vector<StageSeconds>& stageSeconds() const { return clock_.stages(); }
+  // f() as a stage of a step of its own, e.g. a solve between the grid update and the particle
+  // pass; the loops it runs (parallelFor, forActiveNodes) count in it.
+  template <class F>
+  void timed(std::string_view stage, F&& f) {
+    const StageClock::Scope time = timeStage(stage);
+    f();
+  }
 
   // The stages. scatter: f(p, partial grid) for every particle, each row into the partial grid
   // of its colour. updateNodes: the grid's mass, momentum (into fields.velocity) and force are the
@@ -132,6 +144,10 @@ class ParticleGridSchedule final : public LoopRunner {
   // The chunks of the sorted order that part `part`'s particle pass takes, [first, last).
   std::pair<int, int> passChunks(int part) const;
   int chunkStart(int c) const { return std::min(particles_, c * chunk); }
+  // Times a stage of step() on the calling thread, where the stage ends once every thread is done.
+  StageClock::Scope timeStage(std::string_view stage) {
+    return {team_.onCallingThread() && stepping_ ? &clock_ : nullptr, stage};
+  }
 
   GridGeometry<D> grid_;
   int particles_;
@@ -149,6 +165,8 @@ class ParticleGridSchedule final : public LoopRunner {
   std::vector<char> part_in_rows_;  // per part: its particles stayed within their rows' cells
   bool unsummed_scatter_ = false;   // a scatterAlone that no grid stage has summed
   bool binned_since_stored_ = true;
+  bool stepping_ = false;  // inside step(): its stages are timed
+  StageClock clock_;
   long steps_ = 0;
   long stored_step_ = -sorted_storage_interval;
   typename P::SpareArrays spare_;  // one array of each element type: the sort's target
@@ -170,11 +188,13 @@ void ParticleGridSchedule<D, P>::step(P& particles, bool shared, Body&& body) {
     binned_since_stored_ = false;
     stored_step_ = steps_;
   }
+  stepping_ = true;
   team_.together(shared, [&] {
-    if (bin) binning_.bin(team_, particle_shares_, particles.x);
-    if (store) storeInSortedOrder(particles);
+    if (bin) timed("bin", [&] { binning_.bin(team_, particle_shares_, particles.x); });
+    if (store) timed("sort", [&] { storeInSortedOrder(particles); });
     body();
   });
+  stepping_ = false;
   gridStageDone();
   ++steps_;
 }
@@ -182,6 +202,7 @@ void ParticleGridSchedule<D, P>::step(P& particles, bool shared, Body&& body) {
 template <int D, class P>
 template <class F>
 void ParticleGridSchedule<D, P>::scatter(F&& f) {
+  const StageClock::Scope time = timeStage("scatter");
   team_.forEachPart("scatter", [&](int part) {
     const auto [first, last] = binning_.partRows(part);
     for (int row = first; row < last; ++row) {
@@ -210,6 +231,7 @@ void ParticleGridSchedule<D, P>::updateNodes(GridFields<D>& fields, F&& f) {
   // rows of the scatter: a line whose partial grids the other thread wrote costs more.
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
+  const StageClock::Scope time = timeStage("grid update");
   team_.forEachPart("grid update", [&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
@@ -231,6 +253,7 @@ void ParticleGridSchedule<D, P>::passOverParticles(std::string_view stage,
                                                    std::vector<Measure>& measures, F&& f) {
   // The particles in the scatter's order, cut at the parts' shares: a thread moves the particles
   // it scattered and stored, still in its cache.
+  const StageClock::Scope time = timeStage(stage);
   team_.forEachPart(stage, [&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     Measure m{};

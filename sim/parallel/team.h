@@ -150,6 +150,8 @@ class Team {
   }
 
   int parts() const { return parts_; }
+  // Whether this is the thread that calls the team (thread 0), not one of its workers.
+  static bool onCallingThread() { return thread_index == 0; }
 
   // body() on every thread of the team if `shared`, else on the calling thread alone (each stage
   // then meets on its own).

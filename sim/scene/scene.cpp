@@ -396,4 +396,22 @@ void refineGrid(Scene& scene, int factor) {
   scene.cell_size /= factor;
 }
 
+void scaleGrid(Scene& scene, double factor) {
+  std::array<int, 3> cells = scene.cells;
+  for (int a = 0; a < scene.dimension; ++a) {
+    const double scaled = scene.cells[a] * factor;
+    cells[a] = static_cast<int>(std::lround(scaled));
+    if (!(factor > 0) || std::abs(scaled - cells[a]) > 1e-9 * scaled || cells[a] < 1 ||
+        cells[a] > 4096) {
+      std::ostringstream problem;
+      problem << scene.file << ": grid.cells: " << factor << " times " << scene.cells[a]
+              << " cells is " << scaled << "; allowed: a whole number from 1 to 4096 along each "
+              << "axis";
+      throw InputError(problem.str());
+    }
+  }
+  scene.cells = cells;
+  scene.cell_size /= factor;
+}
+
 }  // namespace snowsim

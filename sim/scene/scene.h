@@ -156,4 +156,9 @@ void setParticlesPerCell(Scene& scene, int count);
 // `factor` times the cells of every authored axis, cell size / factor: the same domain, finer.
 void refineGrid(Scene& scene, int factor);
 
+// `factor` (> 0, e.g. 0.5 or 1.5) times the cells along every axis the scene runs in, the depth of
+// a 2D scene's slab included, cell size / factor: the same domain, finer or coarser. Throws
+// InputError unless every axis gets a whole number of cells from 1 to 4096.
+void scaleGrid(Scene& scene, double factor);
+
 }  // namespace snowsim

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -33,12 +34,18 @@ std::string scene(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
 }
 
-// Whether every line of a run's output is a per-frame progress line: nothing else to say.
+// Whether every line of a run's output is a per-frame progress line or the cost estimate: nothing
+// else to say.
 bool onlyProgress(const std::string& output) {
   std::istringstream lines(output);
   for (std::string line; std::getline(lines, line);)
-    if (line.rfind("frame ", 0) != 0) return false;
+    if (line.rfind("frame ", 0) != 0 && line.find("particle-steps") == std::string::npos)
+      return false;
   return true;
+}
+
+nlohmann::json runSummary(const fs::path& out) {
+  return nlohmann::json::parse(std::ifstream(out / "run.json"));
 }
 
 TEST(Cli, RunWritesPlyFramesAndASummary) {
@@ -135,6 +142,148 @@ TEST(Cli, SetTakesArrayIndicesInBrackets) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"], bigger);
   EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";
+}
+
+// --scale S: S times the cells along each axis over the same domain, the bodies kept at their
+// particles per cell: S^2 times the particles of a 2D box whose edges lie on both lattices.
+TEST(Cli, ScaleRefinesTheGridAndKeepsTheBodies) {
+  const fs::path dir = freshDir("scale");
+  fs::create_directories(dir);
+  std::ofstream(dir / "box.json") << R"({"name": "box", "particles_per_cell": 4,
+    "grid": {"cells": [8, 8], "cell_size": 0.25},
+    "time": {"dt": 0.002, "duration": 0.004, "fps": 250},
+    "bodies": [{"shape": "box", "center": [1, 1], "size": [1, 1]}]})";
+  const std::string run = "run " + (dir / "box.json").string() + " --no-png --no-mp4 --no-ply";
+  Result r = runSnowsim(run + " -o " + (dir / "plain").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("box: 64 particles, 8 x 8 cells of 0.25 m; 0.004 s simulated at a "
+                          "first step of 0.002 s: about 2 steps, 128 particle-steps"),
+            std::string::npos)
+      << r.output;
+  for (const double scale : {2.0, 0.5}) {
+    const fs::path out = dir / ("scaled" + std::to_string(scale));
+    r = runSnowsim(run + " -o " + out.string() + " --scale " + std::to_string(scale));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto summary = runSummary(out);
+    EXPECT_EQ(summary["particles"].get<double>(), 64 * scale * scale);
+    EXPECT_DOUBLE_EQ(summary["cell_size"].get<double>(), 0.25 / scale);
+    EXPECT_EQ(summary["scale"].get<double>(), scale);
+    EXPECT_EQ(summary["steps"].get<double>(), 2 * scale) << "a fixed step follows the cell";
+  }
+  r = runSnowsim(run + " -o " + (dir / "scaled").string() + " --scale 2 --set time.dt=0.002");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(runSummary(dir / "scaled")["steps"], 2) << "the user's --set time.dt is kept";
+
+  const fs::path refused = dir / "refused";
+  for (const auto& [scale, message] :
+       {std::pair<std::string, std::string>{
+            "1.1", "--scale 1.1: " + (dir / "box.json").string() +
+                       ": grid.cells: 1.1 times 8 cells is 8.8; allowed: a whole number "
+                       "from 1 to 4096 along each axis"},
+        {"0", "--scale 0: allowed: a number above 0"},
+        {"-2", "--scale -2: allowed: a number above 0"}}) {
+    r = runSnowsim(run + " -o " + refused.string() + " --scale " + scale);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(refused)) << "nothing is written for bad input";
+  }
+}
+
+// Once its first steps are measured, a run says how long its steps will take.
+TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
+  const fs::path out = freshDir("estimate");
+  const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                              " --no-png --no-mp4 --no-ply --set time.duration=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("snowball_drop: 25 particles, 10 x 12 cells of 0.01 m; 0.02 s simulated "
+                          "at a first step of 0.001 s: about 20 steps, 500 particle-steps"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("snowball_drop: estimate: the steps take about "), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("particle-steps a second over steps 2-11"), std::string::npos)
+      << r.output;
+
+  // --estimate stops there and writes nothing.
+  const fs::path none = freshDir("estimate_only");
+  const Result e = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
+                              " --estimate --scale 2");
+  ASSERT_EQ(e.code, 0) << e.output;
+  EXPECT_NE(e.output.find("snowball_drop: 96 particles, 20 x 24 cells of 0.005 m; 1 s "
+                          "simulated at a first step of 0.0005 s: about 2000 steps, 192 thousand "
+                          "particle-steps"),
+            std::string::npos)
+      << e.output;
+  EXPECT_NE(e.output.find("snowball_drop: estimate: the steps take about "), std::string::npos)
+      << e.output;
+  EXPECT_EQ(e.output.find("frame "), std::string::npos) << e.output;
+  EXPECT_FALSE(fs::exists(none));
+}
+
+// run.json says where the wall time went: the solver's stages and the main thread's, each a
+// share of the run's wall time, together no more than it.
+TEST(Cli, RunRecordsItsStageTimes) {
+  const fs::path out = freshDir("stages");
+  for (const std::string integrator : {"explicit", "semi_implicit"}) {
+    const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                                " --set solver=mpm --set time.duration=0.02 --width 64 "
+                                "--height 48 --no-mp4 --set mpm.integrator=" +
+                                integrator);
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto summary = runSummary(out);
+    const double wall = summary["wall_time"];
+    double sum = 0;
+    std::set<std::string> names;
+    for (const auto& stage : summary["stages"]) {
+      const double seconds = stage["seconds"];
+      EXPECT_GE(seconds, 0) << stage;
+      EXPECT_DOUBLE_EQ(stage["share"].get<double>(), seconds / wall) << stage;
+      sum += seconds;
+      names.insert(stage["stage"].get<std::string>());
+    }
+    EXPECT_LE(sum, wall);
+    for (const char* stage : {"setup", "scatter", "grid update", "move particles",
+                              "rest of the step", "snapshot", "write PLY", "render"})
+      EXPECT_EQ(names.count(stage), 1) << integrator << ": " << stage;
+    EXPECT_EQ(names.count("implicit solve"), integrator == "semi_implicit") << integrator;
+  }
+}
+
+// A step that collapses is reported once, with its cause: the hardening of compacted snow, or the
+// speed of the snow; a calm run (the step halves as the ball lands) says nothing.
+TEST(Cli, RunWarnsWhenTheStepCollapses) {
+  const fs::path out = freshDir("collapse");
+  const std::string run = "run " + scene("snowball_drop") + " -o " + out.string() +
+                          " --no-png --no-mp4 --no-ply --set solver=mpm ";
+  Result r = runSnowsim(run + "--set time.duration=0.3");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+  EXPECT_FALSE(runSummary(out).contains("step_collapse"));
+
+  // A ball thrown at the ground at 8 m/s: the snow it compacts hardens.
+  r = runSnowsim(run + "--set time.duration=0.04 --set 'bodies[0].velocity=[0,-8]'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("the time step fell below a quarter of the"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("s it started at, to "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the snow hardened. Its stiffest elastic wave runs at"),
+            std::string::npos)
+      << r.output;
+  auto collapse = runSummary(out)["step_collapse"];
+  EXPECT_EQ(collapse["cause"], "hardening");
+  EXPECT_LT(collapse["step_size"].get<double>(),
+            0.25 * collapse["initial_step_size"].get<double>());
+  EXPECT_GT(collapse["hardening"].get<double>(), 16) << "the wave four times as fast";
+
+  // Soft snow falling under strong gravity from a step of its slow wave: its speed sets the step.
+  r = runSnowsim(run + "--set time.duration=0.04 --set time.dt=0.05 --set material.E0=300 " +
+                 "--set 'gravity=[0,-100]'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("the snow sped up. It moves at"), std::string::npos) << r.output;
+  collapse = runSummary(out)["step_collapse"];
+  EXPECT_EQ(collapse["cause"], "speed");
+  EXPECT_GT(collapse["particle_speed"].get<double>(), collapse["wave_speed"].get<double>());
+  EXPECT_EQ(r.output.find("warning"), r.output.rfind("warning")) << "once:\n" << r.output;
 }
 
 TEST(Cli, ThreadsMustBeAWholeNumberFrom1To1024) {

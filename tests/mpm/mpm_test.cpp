@@ -329,6 +329,38 @@ TEST(Mpm, ParticlesAreBinnedAnewOnceOneMovesMoreThanACellBeyondItsRow) {
   }
 }
 
+// The step's limit split into its terms: the particle that sets the CFL step, its speed, its
+// elastic wave speed and the hardening that raised it, as the time-step policy sees them; the
+// semi-implicit step has no wave term. The stages a step timed fit in the step's time.
+TEST(Mpm, StepLimitNamesTheTermsOfTheStableStep) {
+  Json j = baseScene();
+  j["bodies"][0]["center"] = {0.1, 0.04};
+  j["bodies"][0]["velocity"] = {0, -4};  // into the ground: it compacts and hardens
+  auto s = makeSolver<2>(j);
+  run(s, 0.02);
+  const StepLimit limit = s.stepLimit();
+  EXPECT_NEAR(limit.step, s.params().cfl * s.grid().h / (limit.wave_speed + limit.particle_speed),
+              1e-12 * limit.step);
+  EXPECT_LT(limit.plastic_j, 1) << "compacted";
+  EXPECT_NEAR(limit.hardening, std::exp(s.material().xi * (1 - limit.plastic_j)),
+              1e-9 * limit.hardening);
+  const Real rest_wave = pWaveSpeed(hardenedLame(s.material(), 1), 400);
+  EXPECT_NEAR(limit.wave_speed, rest_wave * std::sqrt(limit.hardening), 1e-9 * limit.wave_speed);
+
+  double staged = 0;
+  for (const StageSeconds& stage : s.stageSeconds()) staged += stage.seconds;
+  EXPECT_GT(staged, 0);
+  EXPECT_LE(staged, s.stepSeconds());
+
+  j["mpm"]["integrator"] = "semi_implicit";
+  auto semi = makeSolver<2>(j);
+  run(semi, 0.002);
+  EXPECT_EQ(semi.stepLimit().wave_speed, 0);
+  EXPECT_NEAR(semi.stepLimit().step,
+              semi.params().cfl * semi.grid().h / semi.stepLimit().particle_speed,
+              1e-12 * semi.stepLimit().step);
+}
+
 // Between binnings each row scatters the particles it was given into nodes its colour keeps for
 // it. A ball thrown up and sideways without gravity crosses several rows: after every step the
 // grid must hold all of its mass, 1 and 2 threads must agree bit for bit, and the particles must

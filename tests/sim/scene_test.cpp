@@ -232,6 +232,36 @@ TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
   EXPECT_THROW(refineGrid(s, 100), InputError);
 }
 
+// Scaling keeps the domain along every axis the scene runs in, a 2D scene's slab depth included,
+// and refuses a factor that leaves a fraction of a cell.
+TEST(Scene, ScalingTheGridKeepsTheDomainAlongEveryAxis) {
+  Scene s = loadScene(writeTemp(kMinimal), {"dimension=3", "grid.depth_cells=2"});
+  const Vec3 extent = s.extent();
+  scaleGrid(s, 1.5);
+  EXPECT_EQ(s.cells[0], 15);
+  EXPECT_EQ(s.cells[1], 18);
+  EXPECT_EQ(s.cells[2], 3);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(s.extent()[a], extent[a], 1e-15) << a;
+  scaleGrid(s, 1.0 / 3);
+  EXPECT_EQ(s.cells[0], 5);
+  EXPECT_EQ(s.cells[2], 1);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(s.extent()[a], extent[a], 1e-15) << a;
+
+  for (const double bad : {1.1, 0.0, -2.0, 1000.0}) {
+    Scene t = loadScene(writeTemp(kMinimal));
+    try {
+      scaleGrid(t, bad);
+      ADD_FAILURE() << bad << " leaves no whole grid";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("grid.cells: "), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("allowed: a whole number from 1 to 4096"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_EQ(t.cells[0], 10) << "a refused factor changes nothing";
+  }
+}
+
 TEST(Scene, ParticlesPerCellChangesTheBodiesWithoutTheirOwn) {
   std::string text = kMinimal;
   text.replace(text.find("}]"), 2,

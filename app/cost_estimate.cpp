@@ -1,0 +1,82 @@
+#include "app/cost_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <initializer_list>
+
+namespace snowsim {
+
+namespace {
+
+struct Unit {
+  double from, size;
+  const char* format;  // of value / size
+};
+
+// The value in the first unit it reaches.
+std::string inUnits(double value, std::initializer_list<Unit> units) {
+  char text[64] = "";
+  for (const Unit& unit : units)
+    if (value >= unit.from) {
+      std::snprintf(text, sizeof text, unit.format, value / unit.size);
+      break;
+    }
+  return text;
+}
+
+}  // namespace
+
+std::string roughCount(double count) {
+  return inUnits(count, {{1e9, 1e9, "%.1f billion"},
+                         {1e6, 1e6, "%.1f million"},
+                         {1e4, 1e3, "%.0f thousand"},
+                         {-INFINITY, 1, "%.0f"}});
+}
+
+std::string roughDuration(double seconds) {
+  return inUnits(seconds, {{5400, 3600, "%.1f h"}, {90, 60, "%.0f min"}, {-INFINITY, 1, "%.2g s"}});
+}
+
+CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& start)
+    : name_(scene.name),
+      duration_(scene.duration),
+      particles_(particles),
+      initial_step_(std::min(scene.dt, start.step)) {
+  char grid[96];
+  int n = std::snprintf(grid, sizeof grid, "%d", scene.cells[0]);
+  for (int a = 1; a < scene.dimension; ++a)
+    n += std::snprintf(grid + n, sizeof grid - n, " x %d", scene.cells[a]);
+  std::snprintf(grid + n, sizeof grid - n, " cells of %g m", scene.cell_size);
+  grid_ = grid;
+  particle_steps_ = double(particles_) * std::ceil(duration_ / initial_step_ - 1e-9);
+}
+
+std::string CostEstimate::before() const {
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "%s: %s particles, %s; %g s simulated at a first step of %.2g s: about %s "
+                "steps, %s particle-steps",
+                name_.c_str(), roughCount(particles_).c_str(), grid_.c_str(), duration_,
+                initial_step_, roughCount(std::ceil(duration_ / initial_step_ - 1e-9)).c_str(),
+                roughCount(particle_steps_).c_str());
+  return text;
+}
+
+std::string CostEstimate::afterStep(const Simulation& simulation) {
+  if (said_) return "";
+  if (simulation.steps() == 1) seconds_after_first_ = simulation.stepSeconds();
+  if (seconds_after_first_ < 0 || simulation.steps() < 1 + measured_steps) return "";
+  said_ = true;
+  const double seconds = simulation.stepSeconds() - seconds_after_first_;
+  const double rate = particles_ * double(measured_steps) / std::max(seconds, 1e-9);
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "%s: estimate: the steps take about %s (%s particle-steps a second over steps "
+                "2-%d; more if the step shrinks); rendering and writing frames come on top",
+                name_.c_str(), roughDuration(particle_steps_ / rate).c_str(),
+                roughCount(rate).c_str(), 1 + measured_steps);
+  return text;
+}
+
+}  // namespace snowsim

@@ -1,0 +1,48 @@
+// What a run will cost, said before it starts: its particles, its grid, and the steps and
+// particle-steps its duration takes at the step it starts with; then, once its first steps are
+// measured, the time those particle-steps take at their rate. Both are lower bounds when the step
+// shrinks later (the snow speeds up or hardens), which the step watch (app/step_watch.h) reports.
+#pragma once
+
+#include <string>
+
+#include "sim/scene/scene.h"
+#include "sim/simulation.h"
+
+namespace snowsim {
+
+class CostEstimate {
+ public:
+  // Steps timed for the rate, after the first (which also sets up the solver's arrays and pages).
+  static constexpr int measured_steps = 10;
+
+  // Before the first step, which is time.dt or the stable step of `start`, whichever is smaller.
+  CostEstimate(const Scene& scene, int particles, const StepLimit& start);
+
+  // The step the run starts with.
+  double initialStep() const { return initial_step_; }
+
+  // "snowball_drop: 25 particles, 10 x 12 cells of 0.01 m; 1 s simulated at a first step of
+  // 0.001 s: about 1000 steps, 25 thousand particle-steps"
+  std::string before() const;
+  // Between steps: once measured_steps steps after the first have run, the time estimate and the
+  // rate it is from (empty before that, and after it was given once).
+  std::string afterStep(const Simulation& simulation);
+
+ private:
+  std::string name_;
+  std::string grid_;  // "10 x 12 cells of 0.01 m"
+  double duration_;
+  int particles_;
+  double initial_step_;
+  double particle_steps_;
+  double seconds_after_first_ = -1;  // the steps' wall time after the first step
+  bool said_ = false;
+};
+
+// "about 1.2 million" for counts from ten thousand up; the plain number below.
+std::string roughCount(double count);
+// "0.38 s", "45 s", "12 min", "3.2 h".
+std::string roughDuration(double seconds);
+
+}  // namespace snowsim

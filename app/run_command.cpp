@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/collider_json.h"
 #include "app/commands.h"
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
@@ -15,6 +16,7 @@
 #include "app/quality.h"
 #include "app/render_sink.h"
 #include "render/scene_render.h"
+#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -102,7 +104,8 @@ void run(const RunOptions& options) {
                             {"wall_time", wall},
                             {"particles", simulation->particleCount()},
                             {"frames", written},
-                            {"fps", scene.fps}};
+                            {"fps", scene.fps},
+                            {"colliders", collidersToJson(collidersAt(scene, scene.dimension, 0))}};
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/collider_json.h"
 #include "app/commands.h"
 #include "app/render_sink.h"
 #include "sim/core/errors.h"
@@ -22,14 +23,18 @@ struct RenderCommandOptions {
   RenderOptions render;
 };
 
-// The frame rate and scene name recorded by `snowsim run`, if the directory has its run.json.
-void readRunSummary(const std::filesystem::path& dir, double& fps, std::string& name) {
+// The frame rate, scene name and colliders (at time 0) recorded by `snowsim run`, if the
+// directory has its run.json.
+void readRunSummary(const std::filesystem::path& dir, double& fps, std::string& name,
+                    std::vector<SnapshotCollider>& colliders) {
   std::ifstream in(dir / "run.json");
   if (!in) return;
   const auto summary = nlohmann::json::parse(in, nullptr, false);
   if (summary.is_discarded()) return;
   fps = summary.value("fps", fps);
   name = summary.value("scene", name);
+  if (summary.contains("colliders"))
+    colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
 }
 
 void renderFrames(const RenderCommandOptions& options) {
@@ -40,7 +45,8 @@ void renderFrames(const RenderCommandOptions& options) {
   std::sort(files.begin(), files.end());
   double fps = 30;
   std::string name = "frames";
-  readRunSummary(options.frames, fps, name);
+  std::vector<SnapshotCollider> colliders;
+  readRunSummary(options.frames, fps, name, colliders);
   // Every setting is checked before anything is written.
   const RenderSettings settings = options.render.settings(RenderSettings{});
   if (settings.color_by == ColorBy::Plastic && readPly(files.front().string()).plastic_j.empty())
@@ -51,7 +57,11 @@ void renderFrames(const RenderCommandOptions& options) {
   prepareOutputDirectory(out);
   RenderSink sink(settings, options.render.png ? out : "",
                   options.render.mp4 ? out + "/" + name + ".mp4" : "", video);
-  for (const auto& file : files) sink.write(readPly(file.string()));
+  for (const auto& file : files) {
+    Snapshot frame = readPly(file.string());
+    for (const SnapshotCollider& c : colliders) frame.colliders.push_back(c.movedBy(frame.time));
+    sink.write(frame);
+  }
   sink.finish();
 }
 

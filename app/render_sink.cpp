@@ -28,6 +28,13 @@ void RenderOptions::addTo(CLI::App& command) {
       ->delimiter(',')
       ->expected(3);
   command.add_option("--fov", fov, "3D camera vertical field of view, degrees (default 35)");
+  command.add_option("--look", look,
+                     "studio (dark background, default) or figure (white, like a paper's figure)");
+  command.add_option("--background", background, "Background colour r,g,b, each 0 to 1")
+      ->delimiter(',')
+      ->expected(3);
+  addOffFlag(command, "--no-shadows", shadows, "3D: the key light casts no shadows");
+  addOffFlag(command, "--no-occlusion", occlusion, "3D: no ambient occlusion between spheres");
   addOffFlag(command, "--no-png", png, "Do not write the per-frame PNG images");
   addOffFlag(command, "--no-mp4", mp4, "Do not encode the frames into an MP4 video");
   command.add_option("--mp4-fps", video_fps,
@@ -59,6 +66,10 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (given("--camera-target")) s.camera.target = point(camera_target), s.camera.custom = true;
   if (given("--camera-up")) s.camera.up = point(camera_up);
   if (given("--fov")) s.camera.fov_degrees = fov;
+  if (given("--look")) s.look = parseLook(look);
+  if (given("--background")) s.background = point(background);
+  if (!shadows) s.shadows = false;
+  if (!occlusion) s.occlusion = false;
   validate(s);
   return s;
 }

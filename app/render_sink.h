@@ -26,6 +26,10 @@ struct RenderOptions {
   double sphere_radius = 0;
   std::vector<double> camera_eye, camera_target, camera_up;
   double fov = 35;
+  std::string look = "studio";
+  std::vector<double> background;
+  bool shadows = true;
+  bool occlusion = true;
   bool png = true;
   bool mp4 = true;
   VideoSettings video;

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/collider_json.h"
 #include "app/commands.h"
 #include "app/cost_estimate.h"
 #include "app/frame_sink.h"
@@ -18,6 +19,7 @@
 #include "app/scale.h"
 #include "app/step_watch.h"
 #include "render/scene_render.h"
+#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -151,7 +153,8 @@ void run(const RunOptions& options) {
                             {"particles", simulation->particleCount()},
                             {"frames", written},
                             {"fps", scene.fps},
-                            {"stages", stageTimes(*simulation, clock, wall)}};
+                            {"stages", stageTimes(*simulation, clock, wall)},
+                            {"colliders", collidersToJson(collidersAt(scene, scene.dimension, 0))}};
   if (options.scale != 1) summary["scale"] = options.scale;
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},

@@ -1,13 +1,18 @@
-// Rendering speed: milliseconds per 1280x720 frame for 10k, 100k and 1M spheres (a 2D scene's
-// orthographic view and a 3D perspective one), and per frame for each encoder (PNG, MP4).
-// Medians. Usage: render_bench [repetitions=5]
+// Rendering speed: milliseconds per 1920x1080 frame of 3D snow (perspective) for 10k, 250k and 1M
+// spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a 2D
+// frame (orthographic, the report's look) of 1M; and per frame for each encoder (PNG, MP4).
+// Medians of the wall time, and the process's CPU time a frame (all of llvmpipe's threads; on a
+// shared machine it tells the work apart from the waiting). Usage: render_bench [repetitions=5]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+
+#include <sys/resource.h>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "bench/median.h"
@@ -37,21 +42,52 @@ Snapshot packedSnow(int dimension, int n) {
   return s;
 }
 
+double cpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// "wall (cpu)" in ms a frame: the median wall time and the mean CPU time of `repetitions` frames.
+std::string timeFrames(Renderer& renderer, const Snapshot& s, int repetitions) {
+  renderer.render(s);  // the first frame compiles shaders and sizes the targets
+  const double cpu0 = cpuSeconds();
+  const double wall = medianMs(repetitions, [&] { renderer.render(s); });
+  const double cpu = 1e3 * (cpuSeconds() - cpu0) / repetitions;
+  char text[32];
+  std::snprintf(text, sizeof text, "%6.0f (%5.0f)", wall, cpu);
+  return text;
+}
+
+RenderSettings fullHd(bool shadows, bool occlusion) {
+  RenderSettings settings;
+  settings.width = 1920;
+  settings.height = 1080;
+  settings.shadows = shadows;
+  settings.occlusion = occlusion;
+  return settings;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const int repetitions = argc > 1 ? std::atoi(argv[1]) : 5;
-  RenderSettings settings;  // 1280x720
-  Renderer renderer(settings);
-  for (int dimension : {2, 3})
-    for (int n : {10'000, 100'000, 1'000'000}) {
-      const Snapshot s = packedSnow(dimension, n);
-      renderer.render(s);  // the first frame compiles shaders
-      const double ms = medianMs(repetitions, [&] { renderer.render(s); });
-      std::printf("%dD %8d spheres: %7.1f ms/frame\n", dimension, n, ms);
-    }
+  std::printf("1920x1080, ms a frame: wall (cpu)    %-14s %-14s %-14s %-14s\n", "plain", "shadows",
+              "occlusion", "both");
+  Renderer plain(fullHd(false, false)), shadows(fullHd(true, false)),
+      occlusion(fullHd(false, true)), both(fullHd(true, true));
+  for (int n : {10'000, 250'000, 1'000'000}) {
+    const Snapshot s = packedSnow(3, n);
+    std::printf("3D %8d spheres %-12s", n, n == 10'000 ? "(impostors)" : "(sprites)");
+    for (Renderer* renderer : {&plain, &shadows, &occlusion, &both})
+      std::printf(" %-14s", timeFrames(*renderer, s, repetitions).c_str());
+    std::printf("\n");
+  }
+  std::printf("2D  1000000 spheres (sprites)    %s\n",
+              timeFrames(plain, packedSnow(2, 1'000'000), repetitions).c_str());
 
-  const Image frame = renderer.render(packedSnow(2, 10'000));
+  const Image frame = plain.render(packedSnow(2, 10'000));
   const auto dir = std::filesystem::temp_directory_path();
   const double png =
       medianMs(repetitions, [&] { writePng((dir / "snowsim_bench.png").string(), frame); });

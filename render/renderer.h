@@ -1,11 +1,14 @@
-// Draws a Snapshot off-screen: the particles as shaded spheres over the simulation grid, as in
-// the report's figures. 2D scenes get an orthographic front view of the domain, 3D scenes a
-// perspective view (by default from the front, above and to the right). 4x MSAA. Spheres a few
-// pixels wide are drawn as point sprites instead of ray-cast impostors (docs/rendering.md).
+// Draws a Snapshot off-screen: the particles as shaded spheres, the colliders and the simulation
+// grid. 2D scenes get the report's look: an orthographic front view of the domain, drawn forward
+// with 4x MSAA. 3D scenes get a perspective view (by default from the front, above and to the
+// right), drawn deferred: a G-buffer of the spheres, ground and colliders, then one lighting pass
+// with a key light and its shadow map, a sky fill and screen-space ambient occlusion. Spheres a
+// few pixels wide are point sprites instead of ray-cast impostors (docs/rendering.md).
 #pragma once
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "render/image.h"
@@ -19,6 +22,12 @@ enum class ColorBy { White, Density, Speed, Plastic };
 
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
 ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
+
+// Studio: a dark background (the report's). Figure: white, like a paper's figure.
+enum class Look { Studio, Figure };
+
+// Parses "studio", "figure"; throws InputError listing the allowed names.
+Look parseLook(const std::string& name, const std::string& where = "--look");
 
 // A perspective camera for 3D scenes, in world coordinates (metres).
 struct Camera {
@@ -36,6 +45,10 @@ struct RenderSettings {
   double sphere_radius = 0;    // metres; 0: half the particle spacing
   double lod_pixels = 5.0;     // spheres of a smaller projected radius become point sprites
   Camera camera;
+  Look look = Look::Studio;
+  std::optional<std::array<double, 3>> background;  // RGB in [0, 1]; none: the look's
+  bool shadows = true;                              // 3D: the key light casts shadows (shadow map)
+  bool occlusion = true;                            // 3D: screen-space ambient occlusion
 };
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.

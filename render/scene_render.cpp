@@ -10,6 +10,10 @@ RenderSettings renderSettingsFromScene(const SceneRender& render) {
   s.sphere_radius = render.sphere_radius.value_or(s.sphere_radius);
   s.show_grid = render.grid.value_or(s.show_grid);
   s.density_cells = render.density_cells.value_or(s.density_cells);
+  if (render.look) s.look = parseLook(*render.look, "render.look");
+  if (render.background) s.background = *render.background;
+  s.shadows = render.shadows.value_or(s.shadows);
+  s.occlusion = render.occlusion.value_or(s.occlusion);
   if (const auto& camera = render.camera) {
     s.camera.custom = true;
     s.camera.eye = camera->eye;

@@ -1,6 +1,7 @@
 // The scene's `render` object (sim/scene/scene.h, parsed and validated with the rest of the scene
 // file) as the renderer's settings: image size, colouring, sphere size, grid and density cells,
-// and the 3D camera. The command line overrides any of them (app/render_sink.h).
+// the 3D camera, the look, background, shadows and occlusion. The command line overrides any of
+// them (app/render_sink.h).
 #pragma once
 
 #include "render/renderer.h"

@@ -8,8 +8,14 @@ uniform mat4 view;
 uniform mat4 projection;
 uniform float radius;
 uniform float viewport_height;
+// 0: the sprite's size rounds as OpenGL rounds it; 1: up, so that touching spheres leave no gaps
+// between their sprites (the deferred pass reads the surface from their depths).
+uniform float round_up;
 
 out vec3 base_color;
+// A sprite's own normal says little below a few pixels: the lighting pass leans on the depth
+// buffer's surface instead (shaders/surface.glsl).
+out float sprite_normal_trust;
 
 void main() {
   vec4 view_center = view * vec4(center, 1.0);
@@ -18,5 +24,7 @@ void main() {
   base_color = color;
   // Projected radius in pixels: projection[1][1] maps view-space height to clip space; a
   // perspective divides by the distance (w), an orthographic projection has w = 1.
-  gl_PointSize = max(1.0, radius * projection[1][1] * viewport_height / gl_Position.w);
+  float diameter = radius * projection[1][1] * viewport_height / gl_Position.w;
+  gl_PointSize = max(1.0, mix(diameter, ceil(diameter), round_up));
+  sprite_normal_trust = clamp((gl_PointSize - 2.0) / 6.0, 0.0, 1.0);
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/mpm/mpm_solver.h"
 #include "sim/report/density_hybrid.h"
@@ -47,6 +48,7 @@ class SimulationOf final : public Simulation {
         s.position[p.id[i]][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
         s.velocity[p.id[i]][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
       }
+    s.colliders = collidersAt(scene_, D, s.time);
     solver_->describe(s);
     return s;
   }

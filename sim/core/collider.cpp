@@ -133,6 +133,30 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
   return colliders;
 }
 
+std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, double time) {
+  using Shape = SnapshotCollider::Shape;
+  const Vec3 extent = scene.extent();
+  std::vector<SnapshotCollider> colliders;
+  for (const ColliderParams& p : scene.colliders) {
+    SnapshotCollider c;
+    c.shape = p.shape == ColliderShape::HalfSpace ? Shape::Plane
+              : p.shape == ColliderShape::Sphere  ? Shape::Sphere
+                                                  : Shape::Box;
+    c.position = p.position;
+    c.normal = p.normal;
+    c.radius = p.radius;
+    c.size = p.size;
+    c.velocity = p.velocity;
+    if (scene.authored_dimension == 2) {  // extruded along z: through the slab, or flat in 2D
+      c.position[2] = dimension == 3 ? extent[2] / 2 : 0;
+      c.size[2] = dimension == 3 ? extent[2] : 0;
+      c.normal[2] = c.velocity[2] = 0;
+    }
+    colliders.push_back(c.movedBy(time));
+  }
+  return colliders;
+}
+
 template Mat<2> collideAndConstrain<2>(const std::vector<Collider<2>>&, const Vec<2>&, Vec<2>&);
 template Mat<3> collideAndConstrain<3>(const std::vector<Collider<3>>&, const Vec<3>&, Vec<3>&);
 template Vec<2> collideVelocity<2>(const Vec<2>&, const Vec<2>&, const Vec<2>&, ColliderType, Real);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sim/core/math.h"
+#include "sim/core/snapshot.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
@@ -61,5 +62,10 @@ Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<
 // along a 2D scene's extruded z axis are frictionless slip walls, so a slab behaves like 2D.
 template <int D>
 std::vector<Collider<D>> makeColliders(const Scene& scene);
+
+// The scene's colliders (not the domain walls) at `time` seconds, as a snapshot carries them for
+// drawing: in 3D coordinates, a 2D scene's collider extruded through the slab of a 3D run (and
+// at z = 0 in a 2D one).
+std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, double time);
 
 }  // namespace snowsim

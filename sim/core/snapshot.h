@@ -20,6 +20,25 @@ struct GridInfo {
   std::vector<float> node_density;
 };
 
+// A scene collider where it is at the snapshot's time, for drawing (plain data; 2D runs have z = 0
+// and a 2D collider stands for its extrusion along z).
+struct SnapshotCollider {
+  enum class Shape { Plane, Sphere, Box };
+  Shape shape = Shape::Plane;
+  std::array<double, 3> position{};       // a point of the plane, the sphere's or box's centre (m)
+  std::array<double, 3> normal{0, 1, 0};  // plane: outward normal (the solid is behind it)
+  double radius = 0;                      // sphere (m)
+  std::array<double, 3> size{};           // box extents (m)
+  std::array<double, 3> velocity{};       // m/s
+
+  // Where the collider is `elapsed` seconds later (colliders move at constant velocity).
+  SnapshotCollider movedBy(double elapsed) const {
+    SnapshotCollider moved = *this;
+    for (int a = 0; a < 3; ++a) moved.position[a] += elapsed * velocity[a];
+    return moved;
+  }
+};
+
 struct Snapshot {
   int frame = 0;
   double time = 0;
@@ -28,6 +47,7 @@ struct Snapshot {
   std::vector<std::array<float, 3>> velocity;
   std::vector<float> density;    // kg/m^D per particle (current, interpolated from the grid)
   std::vector<float> plastic_j;  // J_P, the plastic volume ratio (MPM only; empty otherwise)
+  std::vector<SnapshotCollider> colliders;  // the scene's colliders (not the domain walls)
 
   int size() const { return static_cast<int>(position.size()); }
 };

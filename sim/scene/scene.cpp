@@ -286,6 +286,14 @@ SceneRender parseRender(const Json* j, const std::string& file) {
   if (f.given("sphere_radius")) r.sphere_radius = f.number("sphere_radius", std::nullopt, 0, 10);
   if (f.given("grid")) r.grid = f.boolean("grid", std::nullopt);
   if (f.given("density_cells")) r.density_cells = f.boolean("density_cells", std::nullopt);
+  if (f.given("look")) r.look = f.choice("look", {"studio", "figure"}, std::nullopt);
+  if (f.given("background")) {
+    r.background = point(f, "background", std::nullopt);
+    for (double c : *r.background)
+      if (!(c >= 0 && c <= 1)) f.fail("background", "each of red, green, blue must be in [0, 1]");
+  }
+  if (f.given("shadows")) r.shadows = f.boolean("shadows", std::nullopt);
+  if (f.given("occlusion")) r.occlusion = f.boolean("occlusion", std::nullopt);
   if (const Json* camera = f.object("camera", false)) {
     JsonFields c(*camera, "render.camera", file);
     SceneCamera& view = r.camera.emplace();

@@ -108,6 +108,10 @@ struct SceneRender {
   std::optional<bool> grid;             // draw the cell lines, walls and ground
   std::optional<bool> density_cells;    // 2D: shade each cell by its density
   std::optional<SceneCamera> camera;    // 3D; none: the default view of the whole domain
+  std::optional<std::string> look;      // "studio" (dark background) or "figure" (white)
+  std::optional<Vec3> background;       // RGB, each in [0, 1]; none: the look's
+  std::optional<bool> shadows;          // 3D: the key light casts shadows
+  std::optional<bool> occlusion;        // 3D: ambient occlusion between spheres
 };
 
 struct Scene {

@@ -120,6 +120,9 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-codec nonesuch", "--mp4-codec");
   expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
+  expectRejected("run " + scene("snowball_drop") + " --look noir", "allowed: studio, figure");
+  expectRejected("run " + scene("snowball_drop") + " --background 1,2,0", "--background");
+  expectRejected("run " + scene("snowball_drop") + " --set render.look=noir", "render.look");
 }
 
 // A bad value given by --set is blamed on the assignment, which the user can find and fix.
@@ -500,6 +503,41 @@ TEST(Cli, RenderRedrawsSavedFrames) {
       runSnowsim("render " + out.string() + " --color-by density --width 200 --height 100");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
+}
+
+// run.json records the scene's colliders; `snowsim render` draws them from there, and refuses a
+// run.json whose colliders it cannot read before writing anything.
+TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
+  const fs::path out = freshDir("render_colliders");
+  ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                       " --set time.duration=0.02 --no-mp4 --width 200 --height 160" +
+                       R"( --set 'colliders=[{"shape": "box", "position": [0.02, 0.02],)" +
+                       R"( "size": [0.02, 0.04], "velocity": [0.1, 0]}]')")
+                .code,
+            0);
+  auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  ASSERT_EQ(summary["colliders"].size(), 1u);
+  EXPECT_EQ(summary["colliders"][0]["shape"], "box");
+  EXPECT_EQ(summary["colliders"][0]["velocity"][0], 0.1);
+  const auto image = [&](const std::string& name) {
+    std::ifstream in(out / name, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string from_run = image("frame_00001.png");
+  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
+  EXPECT_EQ(image("frame_00001.png"), from_run) << "render draws what run drew, collider too";
+
+  summary["colliders"] = nlohmann::json::array();
+  std::ofstream(out / "run.json") << summary.dump();
+  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
+  EXPECT_NE(image("frame_00001.png"), from_run) << "without the collider the frame differs";
+
+  summary["colliders"] = {{{"shape", "cone"}}};
+  std::ofstream(out / "run.json") << summary.dump();
+  const Result bad = runSnowsim("render " + out.string() + " -o " + (out / "again").string());
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("colliders[0]"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(out / "again"));
 }
 
 TEST(Cli, UnwritableOutputDirectoryIsBadInput) {

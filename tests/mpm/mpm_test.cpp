@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
@@ -194,6 +195,31 @@ TEST(Mpm, NoParticleEndsInsideACollider) {
       for (const Collider<2>& c : s.colliders()) EXPECT_GE(c.phi(x), -1e-12);
     }
   }
+}
+
+TEST(Mpm, SnapshotsCarryTheCollidersWhereTheyAre) {
+  // A moving box and a sphere; the snapshot draws them where they are at its time, a 2D scene's
+  // colliders at z = 0 and, run in 3D, through the slab.
+  Json j = baseScene();
+  j["bodies"][0]["center"] = {0.1, 0.15};
+  j["colliders"] = Json::parse(R"([
+    {"shape": "sphere", "position": [0.1, 0.06], "radius": 0.03},
+    {"shape": "box", "position": [0.03, 0.05], "size": [0.02, 0.1], "velocity": [0.5, 0]}])");
+  const Scene scene = parseScene(j, "test.json");
+  auto simulation = makeSimulation(scene);
+  simulation->advanceTo(0.02);
+  const Snapshot s = simulation->snapshot(1);
+  ASSERT_EQ(s.colliders.size(), 2u);
+  EXPECT_EQ(s.colliders[0].shape, SnapshotCollider::Shape::Sphere);
+  EXPECT_DOUBLE_EQ(s.colliders[0].radius, 0.03);
+  EXPECT_EQ(s.colliders[1].shape, SnapshotCollider::Shape::Box);
+  EXPECT_NEAR(s.colliders[1].position[0], 0.03 + 0.5 * s.time, 1e-12) << "moved with its velocity";
+  EXPECT_DOUBLE_EQ(s.colliders[1].position[2], 0);
+
+  const std::vector<SnapshotCollider> slab = collidersAt(scene, 3, 0);
+  const double depth = scene.extent()[2];
+  EXPECT_DOUBLE_EQ(slab[1].position[2], depth / 2);
+  EXPECT_DOUBLE_EQ(slab[1].size[2], depth);
 }
 
 TEST(Mpm, SnapshotsKeepTheParticlesInCreationOrder) {

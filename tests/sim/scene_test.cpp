@@ -213,6 +213,28 @@ TEST(Scene, RenderObjectIsParsedWithTheScene) {
             std::string::npos);
 }
 
+TEST(Scene, RenderLookBackgroundShadowsAndOcclusion) {
+  const Scene s =
+      loadScene(writeTemp(kMinimal), {"render.look=figure", "render.background=[1, 0.5, 0]",
+                                      "render.shadows=false", "render.occlusion=true"});
+  EXPECT_EQ(s.render.look, "figure");
+  ASSERT_TRUE(s.render.background.has_value());
+  EXPECT_DOUBLE_EQ((*s.render.background)[1], 0.5);
+  EXPECT_EQ(s.render.shadows, false);
+  EXPECT_EQ(s.render.occlusion, true);
+  EXPECT_FALSE(loadScene(writeTemp(kMinimal)).render.look.has_value());
+
+  EXPECT_NE(errorOf(kMinimal, {"render.look=noir"})
+                .find(R"(render.look: "noir" is not allowed; allowed: "studio", "figure")"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.background=[1, 2, 0]"})
+                .find("render.background: each of red, green, blue must be in [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.background=[1, 0]"}).find("render.background"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.shadows=3"}).find("render.shadows"), std::string::npos);
+}
+
 // Typed changes keep every digit: a third of a centimetre halved is exactly half of it.
 TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
   const double h = 0.01 / 3;

@@ -1,0 +1,2 @@
+// The key light's shadow map: only depth is written.
+void main() {}

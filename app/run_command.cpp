@@ -14,6 +14,7 @@
 #include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
+#include "render/colour.h"
 #include "render/scene_render.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
@@ -47,6 +48,16 @@ class PlySink final : public FrameSink {
   std::string dir_;
 };
 
+// How the frames were drawn, for `snowsim render` to reuse or change: the 3D camera as placed
+// and the colour range, fixed for the whole run.
+void recordRendering(nlohmann::json& summary, const RenderSettings& render, const Scene& scene) {
+  if (scene.dimension == 3) summary["camera"] = cameraJson(placedCamera(render, scene.extent()));
+  if (render.color_by == ColorBy::White) return;
+  summary["color"] = {{"by", colorByName(render.color_by)}};
+  if (render.color_range)
+    summary["color"]["range"] = {render.color_range->low, render.color_range->high};
+}
+
 void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
@@ -54,7 +65,7 @@ void run(const RunOptions& options) {
   Scene scene = loadScene(options.scene, options.overrides);
   applyQuality(options.quality, options.overrides, scene);
   // Every setting is checked before anything is written.
-  const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
+  RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
       (options.render.png || options.render.mp4))
     throw InputError("--color-by plastic: " + scene.file +
@@ -63,6 +74,7 @@ void run(const RunOptions& options) {
   const VideoSettings video = options.render.videoSettings(scene.fps);
   prepareOutputDirectory(options.out);
   auto simulation = makeSimulation(scene, options.threads);
+  fitToScene(render, scene, simulation->snapshot(0));
 
   FrameSinks sinks;
   if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out));
@@ -119,6 +131,7 @@ void run(const RunOptions& options) {
                    scene.file.c_str(), solves.unconverged, solves.solves,
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
+  if (options.render.png || options.render.mp4) recordRendering(summary, render, scene);
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -151,7 +164,8 @@ void addRunCommand(CLI::App& app) {
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
       "and run.json (steps, simulated time, wall time, particle count, dimension, cell size; for a "
-      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
+      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged; the "
+      "3D camera and the colour range the frames were drawn with).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
   cmd->callback([options] { run(*options); });

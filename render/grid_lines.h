@@ -6,13 +6,25 @@
 
 #include <glm/glm.hpp>
 
+#include "render/camera.h"
 #include "sim/core/snapshot.h"
 
 namespace snowsim {
 
-// The grid: thin cell lines on the back plane, the walls and the ground drawn brighter. Appends
-// line segments (two vertices each).
-void gridLines(const Snapshot& s, glm::vec3 extent, std::vector<float>& out);
+// The colour the frame is cleared to; faded lines blend into it.
+inline const glm::vec3 kBackground(0.2f, 0.22f, 0.27f);
+
+// Lines closer than this on screen fade out; at twice it they are drawn in full.
+constexpr float kLineFadePixels = 4;
+
+// The grid as a viewer can resolve it: the cell lines on the back plane (3D: and the floor's z
+// lines), each line drawn only where the lines of its level lie at least kLineFadePixels apart on
+// screen (levels 1, 5, 10, 50, ... cells: every 5th line stays when single cells are too small,
+// every 10th when those are, ...) and faded towards the background just above that, so no cell
+// count or image size gives moire. The walls, the ground and (3D) the floor's outline are always
+// drawn. Appends line segments (two vertices each).
+void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
+               std::vector<float>& out);
 
 // 2D: each node's cell (side h, centred on the node, clipped to the domain) shaded by its density
 // against the critical density: the background turning blue below it, amber at or above it.

@@ -41,6 +41,9 @@ void validate(const RenderSettings& s) {
                      " is out of range; allowed: (0, 180) degrees");
   if (s.camera.custom && s.camera.eye == s.camera.target)
     throw InputError("camera eye and target must differ");
+  if (s.color_range && !(s.color_range->high > s.color_range->low))
+    throw InputError("colour range [" + std::to_string(s.color_range->low) + ", " +
+                     std::to_string(s.color_range->high) + "] is empty; allowed: low < high");
 }
 
 namespace {
@@ -189,7 +192,7 @@ Image Renderer::render(const Snapshot& s) {
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, g.cells);
   g.lines.clear();
-  if (settings_.show_grid) gridLines(s, extent, g.lines);
+  if (settings_.show_grid) gridLines(s, extent, camera, w, h, g.lines);
   if (!g.cells.empty() || !g.lines.empty()) {
     setCamera(g.line_program, camera);
     glBindVertexArray(g.line_vao);
@@ -206,23 +209,13 @@ Image Renderer::render(const Snapshot& s) {
     if (settings_.color_by == ColorBy::Plastic && static_cast<int>(s.plastic_j.size()) != s.size())
       throw InputError("--color-by plastic: frame " + std::to_string(s.frame) +
                        " has no plastic compression (J_P); only MPM runs carry it");
-    // Colour scale: density against twice the critical density (or the frame's largest), speed
-    // against the frame's largest speed.
-    float scale = 0;
-    for (int i = 0; i < s.size(); ++i) {
-      if (settings_.color_by == ColorBy::Density && !s.density.empty())
-        scale = std::max(scale, s.density[i]);
-      if (settings_.color_by == ColorBy::Speed)
-        scale = std::max(scale, std::hypot(s.velocity[i][0], s.velocity[i][1], s.velocity[i][2]));
-    }
-    if (settings_.color_by == ColorBy::Density && s.grid.critical_density > 0)
-      scale = static_cast<float>(2 * s.grid.critical_density);
+    const ColourRange range = colourRange(settings_, s);
     const ColorBy by = settings_.color_by == ColorBy::Density && s.density.empty()
                            ? ColorBy::White
                            : settings_.color_by;
     g.instances.resize(6 * static_cast<size_t>(s.size()));
     for (int i = 0; i < s.size(); ++i) {
-      const glm::vec3 colour = particleColour(s, i, by, scale);
+      const glm::vec3 colour = particleColour(s, i, by, range);
       std::copy_n(s.position[i].data(), 3, &g.instances[6 * static_cast<size_t>(i)]);
       std::copy_n(&colour.r, 3, &g.instances[6 * static_cast<size_t>(i) + 3]);
     }

@@ -6,8 +6,10 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "render/camera.h"
 #include "render/image.h"
 #include "sim/core/snapshot.h"
 
@@ -20,11 +22,9 @@ enum class ColorBy { White, Density, Speed, Plastic };
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
 ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
 
-// A perspective camera for 3D scenes, in world coordinates (metres).
-struct Camera {
-  bool custom = false;  // false: the default view of the whole domain
-  std::array<double, 3> eye{}, target{}, up{0, 1, 0};
-  double fov_degrees = 35;  // vertical field of view
+// The values the colour map spans: low is its first colour, high its last.
+struct ColourRange {
+  double low = 0, high = 0;
 };
 
 struct RenderSettings {
@@ -36,6 +36,9 @@ struct RenderSettings {
   double sphere_radius = 0;    // metres; 0: half the particle spacing
   double lod_pixels = 5.0;     // spheres of a smaller projected radius become point sprites
   Camera camera;
+  // Fixed for a run so that colours mean the same in every frame; none: render/colour.h's
+  // default for the attribute.
+  std::optional<ColourRange> color_range;
 };
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.

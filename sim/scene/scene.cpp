@@ -289,12 +289,25 @@ SceneRender parseRender(const Json* j, const std::string& file) {
   if (const Json* camera = f.object("camera", false)) {
     JsonFields c(*camera, "render.camera", file);
     SceneCamera& view = r.camera.emplace();
-    view.eye = point(c, "eye", std::nullopt);
-    view.target = point(c, "target", std::nullopt);
-    view.up = point(c, "up", std::vector<double>{0, 1, 0});
+    if (c.given("preset")) {
+      view.preset =
+          c.choice("preset", {"front", "side", "three_quarter", "top"}, std::nullopt);
+      for (const char* placed : {"eye", "target", "up"})
+        if (c.has(placed))
+          c.fail(placed, "a camera has a preset or is placed (eye, target, up), not both");
+    } else {
+      view.eye = point(c, "eye", std::nullopt);
+      view.target = point(c, "target", std::nullopt);
+      view.up = point(c, "up", std::vector<double>{0, 1, 0});
+      if (view.eye == view.target) c.fail("target", "must differ from eye");
+    }
     if (c.given("fov")) view.fov = c.number("fov", std::nullopt, 0, 180, true, true);
-    if (view.eye == view.target) c.fail("target", "must differ from eye");
     c.finish();
+  }
+  if (f.given("color_range")) {
+    const std::vector<double> range = f.numbers("color_range", std::nullopt, {2});
+    if (!(range[0] < range[1])) f.fail("color_range", "must be [low, high] with low < high");
+    r.color_range = {range[0], range[1]};
   }
   f.finish();
   return r;

@@ -91,12 +91,14 @@ struct Body {
   bool own_particles_per_cell = false;
 };
 
-// A 3D camera of the `render` object: eye and target are required, the rest optional.
+// A 3D camera of the `render` object: placed (eye and target, up optional) or a preset that
+// frames the snow; either way an optional field of view.
 struct SceneCamera {
-  Vec3 eye{};                 // m
-  Vec3 target{};              // m, differs from eye
-  Vec3 up{0, 1, 0};           // the image's up direction
-  std::optional<double> fov;  // vertical field of view, degrees in (0, 180)
+  std::optional<std::string> preset;  // "front", "side", "three_quarter" or "top"; none: placed
+  Vec3 eye{};                         // m
+  Vec3 target{};                      // m, differs from eye
+  Vec3 up{0, 1, 0};                   // the image's up direction
+  std::optional<double> fov;          // vertical field of view, degrees in (0, 180)
 };
 
 // The scene's `render` object: how `snowsim run` draws it (docs/scene-format.md). A field left
@@ -107,7 +109,8 @@ struct SceneRender {
   std::optional<double> sphere_radius;  // m in [0, 10]; 0: half the particle spacing
   std::optional<bool> grid;             // draw the cell lines, walls and ground
   std::optional<bool> density_cells;    // 2D: shade each cell by its density
-  std::optional<SceneCamera> camera;    // 3D; none: the default view of the whole domain
+  std::optional<SceneCamera> camera;    // 3D; none: the three-quarter preset
+  std::optional<std::array<double, 2>> color_range;  // the values the colour map spans, low < high
 };
 
 struct Scene {

@@ -373,6 +373,35 @@ TEST(Cli, RenderRedrawsSavedFrames) {
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
 }
 
+std::vector<std::uint8_t> fileBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// A 3D run records the camera that framed its snow; `snowsim render` draws the saved frames
+// with it (the same image), or frames them anew from a preset it is given.
+TEST(Cli, RenderReusesTheCameraOfTheRun) {
+  const fs::path out = freshDir("camera");
+  const std::string size = " --width 160 --height 120 --no-mp4";
+  Result r = runSnowsim("run " + scene("study_smash_3d") + " -o " + out.string() +
+                        " --set time.duration=0.02 --set time.fps=50" + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto camera = nlohmann::json::parse(std::ifstream(out / "run.json"))["camera"];
+  EXPECT_EQ(camera["preset"], "three_quarter");
+  EXPECT_EQ(camera["eye"].size(), 3u);
+  r = runSnowsim("render " + out.string() + " -o " + (out / "again").string() + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(fileBytes(out / "again" / "frame_00001.png"), fileBytes(out / "frame_00001.png"));
+  r = runSnowsim("render " + out.string() + " -o " + (out / "top").string() +
+                 " --camera-preset top" + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(fileBytes(out / "top" / "frame_00001.png"), fileBytes(out / "frame_00001.png"));
+  r = runSnowsim("render " + out.string() + " --camera-preset below" + size);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("allowed: front, side, three_quarter, top"), std::string::npos)
+      << r.output;
+}
+
 TEST(Cli, UnwritableOutputDirectoryIsBadInput) {
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o /proc/snowsim_out");
   EXPECT_EQ(r.code, 2) << r.output;

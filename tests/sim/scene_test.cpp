@@ -213,6 +213,28 @@ TEST(Scene, RenderObjectIsParsedWithTheScene) {
             std::string::npos);
 }
 
+TEST(Scene, RenderCameraPresetAndColourRange) {
+  std::string text = kMinimal;
+  text.insert(text.rfind('}'), R"(, "render": {"camera": {"preset": "side", "fov": 40},
+    "color_range": [0, 3.5]})");
+  const Scene s = loadScene(writeTemp(text));
+  ASSERT_TRUE(s.render.camera.has_value());
+  EXPECT_EQ(s.render.camera->preset, "side");
+  EXPECT_EQ(s.render.camera->fov, 40);
+  ASSERT_TRUE(s.render.color_range.has_value());
+  EXPECT_DOUBLE_EQ((*s.render.color_range)[1], 3.5);
+
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"preset": "below"})"})
+                .find(R"(render.camera.preset: "below" is not allowed; allowed: "front")"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"preset": "top", "eye": [1, 1, 1]})"})
+                .find("render.camera.eye: a camera has a preset or is placed"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.color_range=[2, 1]"})
+                .find("render.color_range: must be [low, high] with low < high"),
+            std::string::npos);
+}
+
 // Typed changes keep every digit: a third of a centimetre halved is exactly half of it.
 TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
   const double h = 0.01 / 3;

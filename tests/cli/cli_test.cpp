@@ -453,9 +453,9 @@ TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
 // above and a viridis colour bar below, dark violet at its low end and yellow at its high end.
 TEST(Cli, FigureOfAnyScene) {
   const fs::path out = freshDir("scene_figure");
-  const Result r = runSnowsim("figure " + scene("study_smash_3d") +
-                              " --times 0,0.02 --color-by plastic --width 160 --height 120 -o " +
-                              out.string());
+  const Result r =
+      runSnowsim("figure " + scene("study_smash_3d") +
+                 " --times 0,0.02 --color-by plastic --width 160 --height 120 -o " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   const snowsim::Image image = snowsim::readPng((out / "study_smash_3d.png").string());
   EXPECT_EQ(image.width, 8 + 2 * (160 + 8));
@@ -466,8 +466,8 @@ TEST(Cli, FigureOfAnyScene) {
   EXPECT_GT(high[0], 200) << "and ends yellow";
   EXPECT_LT(high[2], 80);
 
-  const Result late = runSnowsim("figure " + scene("study_smash_3d") + " --times 0,9 -o " +
-                                 out.string());
+  const Result late =
+      runSnowsim("figure " + scene("study_smash_3d") + " --times 0,9 -o " + out.string());
   EXPECT_EQ(late.code, 2);
   EXPECT_NE(late.output.find("--times: 9"), std::string::npos) << late.output;
 }

@@ -28,6 +28,7 @@ struct RenderCommandOptions {
 struct RunSummary {
   double fps = 30;
   std::string name = "frames";
+  int dimension = 3;  // unknown without run.json: frame the snow in case
   std::optional<Camera> camera;
 };
 
@@ -39,6 +40,7 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
   if (summary.is_discarded()) return run;
   run.fps = summary.value("fps", run.fps);
   run.name = summary.value("scene", run.name);
+  run.dimension = summary.value("dimension", run.dimension);
   try {
     if (summary.contains("camera")) run.camera = cameraFromJson(summary["camera"]);
   } catch (const nlohmann::json::exception& e) {
@@ -89,11 +91,12 @@ void renderFrames(const RenderCommandOptions& options) {
     if (options.render.givesFov()) settings.camera.fov_degrees = fov;
   }
   const bool scan_range = !options.render.givesColourRange() && settings.color_by != ColorBy::White;
-  if (scan_range || !settings.camera.custom) {
+  const bool frame_snow = run.dimension == 3 && !settings.camera.custom;
+  if (scan_range || frame_snow) {
     Bounds bounds;
     ColourRange range;
     scanFrames(files, settings.color_by, bounds, range);
-    if (!settings.camera.custom) settings.camera.frame = bounds;
+    if (frame_snow) settings.camera.frame = bounds;
     if (scan_range && range.high > range.low) settings.color_range = range;
   }
   const VideoSettings video = options.render.videoSettings(run.fps);

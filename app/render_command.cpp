@@ -1,8 +1,10 @@
 // snowsim render DIR: renders saved PLY frames again, e.g. with another colour or size.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -23,18 +25,52 @@ struct RenderCommandOptions {
   RenderOptions render;
 };
 
-// The frame rate, scene name and colliders (at time 0) recorded by `snowsim run`, if the
-// directory has its run.json.
-void readRunSummary(const std::filesystem::path& dir, double& fps, std::string& name,
-                    std::vector<SnapshotCollider>& colliders) {
+// What `snowsim run` recorded in the directory's run.json, if it has one.
+struct RunSummary {
+  double fps = 30;
+  std::string name = "frames";
+  int dimension = 3;  // unknown without run.json: frame the snow in case
+  std::optional<Camera> camera;
+  std::vector<SnapshotCollider> colliders;  // at time 0
+};
+
+RunSummary readRunSummary(const std::filesystem::path& dir) {
+  RunSummary run;
   std::ifstream in(dir / "run.json");
-  if (!in) return;
+  if (!in) return run;
   const auto summary = nlohmann::json::parse(in, nullptr, false);
-  if (summary.is_discarded()) return;
-  fps = summary.value("fps", fps);
-  name = summary.value("scene", name);
+  if (summary.is_discarded()) return run;
+  run.fps = summary.value("fps", run.fps);
+  run.name = summary.value("scene", run.name);
+  run.dimension = summary.value("dimension", run.dimension);
+  try {
+    if (summary.contains("camera")) run.camera = cameraFromJson(summary["camera"]);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError((dir / "run.json").string() + ": camera: " + e.what());
+  }
   if (summary.contains("colliders"))
-    colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
+    run.colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
+  return run;
+}
+
+// The snow's extent over all frames and the extremes of the colouring quantity: density and
+// speed from 0 to the largest, J_P from the smallest to the largest.
+void scanFrames(const std::vector<std::filesystem::path>& files, ColorBy by, Bounds& bounds,
+                ColourRange& range) {
+  range = {by == ColorBy::Plastic ? 1e30 : 0, -1e30};
+  for (const auto& file : files) {
+    const Snapshot s = readPly(file.string());
+    bounds.include(particleBounds(s));
+    for (int i = 0; i < s.size(); ++i) {
+      const double value = by == ColorBy::Density ? (s.density.empty() ? 0 : s.density[i])
+                           : by == ColorBy::Speed
+                               ? std::hypot(s.velocity[i][0], s.velocity[i][1], s.velocity[i][2])
+                           : by == ColorBy::Plastic ? s.plastic_j[i]
+                                                    : 0;
+      range.low = std::min(range.low, value);
+      range.high = std::max(range.high, value);
+    }
+  }
 }
 
 void renderFrames(const RenderCommandOptions& options) {
@@ -43,23 +79,39 @@ void renderFrames(const RenderCommandOptions& options) {
     if (entry.path().extension() == ".ply") files.push_back(entry.path());
   if (files.empty()) throw InputError(options.frames + ": no .ply frames in this directory");
   std::sort(files.begin(), files.end());
-  double fps = 30;
-  std::string name = "frames";
-  std::vector<SnapshotCollider> colliders;
-  readRunSummary(options.frames, fps, name, colliders);
+  const RunSummary run = readRunSummary(options.frames);
   // Every setting is checked before anything is written.
-  const RenderSettings settings = options.render.settings(RenderSettings{});
+  RenderSettings settings = options.render.settings(RenderSettings{});
   if (settings.color_by == ColorBy::Plastic && readPly(files.front().string()).plastic_j.empty())
     throw InputError("--color-by plastic: " + files.front().string() +
                      " has no plastic compression (J_P); only MPM runs write it");
-  const VideoSettings video = options.render.videoSettings(fps);
+  // The run's camera unless the command line places or frames one; a framing camera and the
+  // colour range then come from every frame, so that all are drawn alike.
+  const bool reuse_camera =
+      run.camera && !options.render.placesCamera() && !options.render.choosesPreset();
+  if (reuse_camera) {
+    const double fov = settings.camera.fov_degrees;
+    settings.camera = *run.camera;
+    if (options.render.givesFov()) settings.camera.fov_degrees = fov;
+  }
+  const bool scan_range = !options.render.givesColourRange() && settings.color_by != ColorBy::White;
+  const bool frame_snow = run.dimension == 3 && !settings.camera.custom;
+  if (scan_range || frame_snow) {
+    Bounds bounds;
+    ColourRange range;
+    scanFrames(files, settings.color_by, bounds, range);
+    if (frame_snow) settings.camera.frame = bounds;
+    if (scan_range && range.high > range.low) settings.color_range = range;
+  }
+  const VideoSettings video = options.render.videoSettings(run.fps);
   const std::string out = options.out.empty() ? options.frames : options.out;
   prepareOutputDirectory(out);
   RenderSink sink(settings, options.render.png ? out : "",
-                  options.render.mp4 ? out + "/" + name + ".mp4" : "", video);
+                  options.render.mp4 ? out + "/" + run.name + ".mp4" : "", video);
   for (const auto& file : files) {
     Snapshot frame = readPly(file.string());
-    for (const SnapshotCollider& c : colliders) frame.colliders.push_back(c.movedBy(frame.time));
+    for (const SnapshotCollider& c : run.colliders)
+      frame.colliders.push_back(c.movedBy(frame.time));
     sink.write(frame);
   }
   sink.finish();
@@ -76,7 +128,10 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   cmd->add_option("-o,--out", options->out, "Output directory (default: the frames directory)");
   options->render.addTo(*cmd);
-  cmd->footer("Exit codes: 0 done, 2 bad input.");
+  cmd->footer(
+      "The frames are drawn with the run's camera (run.json) unless --camera-eye/--camera-target "
+      "or --camera-preset say otherwise, and with a colour range over the extremes of all the "
+      "frames unless --color-range gives one.\nExit codes: 0 done, 2 bad input.");
   cmd->callback([options] { renderFrames(*options); });
 }
 

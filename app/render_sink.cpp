@@ -8,6 +8,20 @@
 namespace snowsim {
 
 void RenderOptions::addTo(CLI::App& command) {
+  addImageOptionsTo(command);
+  addOffFlag(command, "--no-png", png, "Do not write the per-frame PNG images");
+  addOffFlag(command, "--no-mp4", mp4, "Do not encode the frames into an MP4 video");
+  command.add_option("--mp4-fps", video_fps,
+                     "Video frame rate (default: the scene's frames per second, real time)");
+  command.add_option("--mp4-crf", video.crf, "Video quality, 0 (lossless) to 51 (worst)")
+      ->capture_default_str();
+  command
+      .add_option("--mp4-codec", video.codec,
+                  "auto (libx264 if present, else mpeg4) or a libavcodec encoder name")
+      ->capture_default_str();
+}
+
+void RenderOptions::addImageOptionsTo(CLI::App& command) {
   command_ = &command;
   command.add_option("--width", width, "Image width in pixels (16 to 8192; default 1280)");
   command.add_option("--height", height, "Image height in pixels (16 to 8192; default 720)");
@@ -28,6 +42,8 @@ void RenderOptions::addTo(CLI::App& command) {
       ->delimiter(',')
       ->expected(3);
   command.add_option("--fov", fov, "3D camera vertical field of view, degrees (default 35)");
+  command.add_option("--camera-preset", camera_preset,
+                     "3D camera framing the snow: front, side, three_quarter (default) or top");
   command.add_option("--look", look,
                      "studio (dark background, default) or figure (white, like a paper's figure)");
   command.add_option("--background", background, "Background colour r,g,b, each 0 to 1")
@@ -35,16 +51,12 @@ void RenderOptions::addTo(CLI::App& command) {
       ->expected(3);
   addOffFlag(command, "--no-shadows", shadows, "3D: the key light casts no shadows");
   addOffFlag(command, "--no-occlusion", occlusion, "3D: no ambient occlusion between spheres");
-  addOffFlag(command, "--no-png", png, "Do not write the per-frame PNG images");
-  addOffFlag(command, "--no-mp4", mp4, "Do not encode the frames into an MP4 video");
-  command.add_option("--mp4-fps", video_fps,
-                     "Video frame rate (default: the scene's frames per second, real time)");
-  command.add_option("--mp4-crf", video.crf, "Video quality, 0 (lossless) to 51 (worst)")
-      ->capture_default_str();
   command
-      .add_option("--mp4-codec", video.codec,
-                  "auto (libx264 if present, else mpeg4) or a libavcodec encoder name")
-      ->capture_default_str();
+      .add_option("--color-range", color_range,
+                  "low,high: the values the colour map spans, fixed for every frame (default: "
+                  "the scene's render.color_range, else a physical range; docs/rendering.md)")
+      ->delimiter(',')
+      ->expected(2);
 }
 
 bool RenderOptions::given(const char* name) const {
@@ -62,6 +74,12 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (given("--camera-eye") != given("--camera-target") && !s.camera.custom)
     throw InputError(
         "--camera-eye and --camera-target: give both (or a render.camera in the scene)");
+  if (choosesPreset() && placesCamera())
+    throw InputError("--camera-preset frames the snow; it cannot go with --camera-eye/target");
+  if (choosesPreset()) {
+    s.camera.custom = false;
+    s.camera.preset = parseCameraPreset(camera_preset, "--camera-preset");
+  }
   if (given("--camera-eye")) s.camera.eye = point(camera_eye), s.camera.custom = true;
   if (given("--camera-target")) s.camera.target = point(camera_target), s.camera.custom = true;
   if (given("--camera-up")) s.camera.up = point(camera_up);
@@ -70,8 +88,40 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (given("--background")) s.background = point(background);
   if (!shadows) s.shadows = false;
   if (!occlusion) s.occlusion = false;
+  if (givesColourRange()) s.color_range = ColourRange{color_range[0], color_range[1]};
   validate(s);
   return s;
+}
+
+bool RenderOptions::placesCamera() const {
+  return given("--camera-eye") || given("--camera-target");
+}
+bool RenderOptions::choosesPreset() const {
+  return given("--camera-preset");
+}
+bool RenderOptions::givesColourRange() const {
+  return given("--color-range");
+}
+bool RenderOptions::givesFov() const {
+  return given("--fov");
+}
+
+nlohmann::json cameraJson(const Camera& camera) {
+  return {{"eye", camera.eye},
+          {"target", camera.target},
+          {"up", camera.up},
+          {"fov", camera.fov_degrees},
+          {"preset", presetName(camera.preset)}};
+}
+
+Camera cameraFromJson(const nlohmann::json& json) {
+  Camera camera;
+  camera.custom = true;
+  camera.eye = json.at("eye").get<std::array<double, 3>>();
+  camera.target = json.at("target").get<std::array<double, 3>>();
+  camera.up = json.at("up").get<std::array<double, 3>>();
+  camera.fov_degrees = json.at("fov").get<double>();
+  return camera;
 }
 
 VideoSettings RenderOptions::videoSettings(double scene_fps) const {

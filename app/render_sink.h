@@ -6,6 +6,7 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "app/frame_sink.h"
 #include "app/frame_writer.h"
@@ -30,12 +31,21 @@ struct RenderOptions {
   std::vector<double> background;
   bool shadows = true;
   bool occlusion = true;
+  std::string camera_preset;
+  std::vector<double> color_range;
   bool png = true;
   bool mp4 = true;
   VideoSettings video;
   double video_fps = 0;  // 0: the scene's frame rate
 
+  // The image options (size, colouring, grid, camera) and the PNG/MP4 outputs' options.
   void addTo(CLI::App& command);
+  void addImageOptionsTo(CLI::App& command);
+  // Whether the command line places the camera, chooses a preset, or fixes the colour range.
+  bool placesCamera() const;
+  bool choosesPreset() const;
+  bool givesColourRange() const;
+  bool givesFov() const;
   // The scene's settings with the options given on the command line applied; throws InputError
   // for a bad value.
   RenderSettings settings(RenderSettings scene) const;
@@ -46,6 +56,10 @@ struct RenderOptions {
   bool given(const char* name) const;
   CLI::App* command_ = nullptr;
 };
+
+// A camera as run.json records it (eye, target, up, fov, preset) and back.
+nlohmann::json cameraJson(const Camera& camera);
+Camera cameraFromJson(const nlohmann::json& json);
 
 class RenderSink final : public FrameSink {
  public:

@@ -18,6 +18,7 @@
 #include "app/render_sink.h"
 #include "app/scale.h"
 #include "app/step_watch.h"
+#include "render/colour.h"
 #include "render/scene_render.h"
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
@@ -81,6 +82,16 @@ void estimateOnly(const Scene& scene, int threads) {
   if (!measured.empty()) std::fprintf(stderr, "%s\n", measured.c_str());
 }
 
+// How the frames were drawn, for `snowsim render` to reuse or change: the 3D camera as placed
+// and the colour range, fixed for the whole run.
+void recordRendering(nlohmann::json& summary, const RenderSettings& render, const Scene& scene) {
+  if (scene.dimension == 3) summary["camera"] = cameraJson(placedCamera(render, scene.extent()));
+  if (render.color_by == ColorBy::White) return;
+  summary["color"] = {{"by", colorByName(render.color_by)}};
+  if (render.color_range)
+    summary["color"]["range"] = {render.color_range->low, render.color_range->high};
+}
+
 void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
@@ -89,7 +100,7 @@ void run(const RunOptions& options) {
   applyQuality(options.quality, options.overrides, scene);
   if (options.scale != 1) applyScale(options.scale, options.overrides, scene);
   // Every setting is checked before anything is written.
-  const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
+  RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
       (options.render.png || options.render.mp4))
     throw InputError("--color-by plastic: " + scene.file +
@@ -105,6 +116,7 @@ void run(const RunOptions& options) {
   {
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads);
+    fitToScene(render, scene, simulation->snapshot(0));
     if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out, clock));
     if (options.render.png || options.render.mp4)
       sinks.push_back(std::make_unique<RenderSink>(
@@ -173,6 +185,7 @@ void run(const RunOptions& options) {
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
   if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
+  if (options.render.png || options.render.mp4) recordRendering(summary, render, scene);
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -214,7 +227,7 @@ void addRunCommand(CLI::App& app) {
       "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "
       "stage, particle count, dimension, cell size; a collapse of the time step and its cause; "
       "for a semi-implicit run, its linear solves: count, mean and most iterations, "
-      "unconverged).\n"
+      "unconverged; the 3D camera and the colour range the frames were drawn with).\n"
       "Before the run starts it prints the particles, the grid and the particle-steps of the "
       "duration, and after the first steps an estimate of their time.\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "

@@ -11,10 +11,12 @@
 #include <vector>
 
 #include <glm/glm.hpp>
-#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "render/camera.h"
+#include "render/colour.h"
 #include "render/gl_context.h"
+#include "render/grid_lines.h"
 #include "render/meshes.h"
 #include "render/shaders.h"
 #include "sim/core/errors.h"
@@ -52,6 +54,9 @@ void validate(const RenderSettings& s) {
         throw InputError(
             "background colour (--background, render.background): " + std::to_string(c) +
             " is out of range; allowed: 0 to 1 (red, green, blue)");
+  if (s.color_range && !(s.color_range->high > s.color_range->low))
+    throw InputError("colour range [" + std::to_string(s.color_range->low) + ", " +
+                     std::to_string(s.color_range->high) + "] is empty; allowed: low < high");
 }
 
 namespace {
@@ -86,111 +91,9 @@ GLuint link(std::vector<const char*> vertex, std::vector<const char*> fragment) 
   return program;
 }
 
-// Blue (low) through white to red (high), t in [0, 1].
-glm::vec3 colormap(float t) {
-  t = std::clamp(t, 0.f, 1.f);
-  const glm::vec3 low(0.15f, 0.35f, 0.85f), mid(0.95f, 0.95f, 0.95f), high(0.85f, 0.15f, 0.1f);
-  return t < 0.5f ? glm::mix(low, mid, 2 * t) : glm::mix(mid, high, 2 * t - 1);
-}
-
-const glm::vec3 snow_white(0.93f, 0.95f, 1.0f);
-
-// The colour of particle i under the chosen attribute; scale normalises density and speed.
-glm::vec3 particleColour(const Snapshot& s, int i, ColorBy by, float scale) {
-  auto speed = [&] { return std::hypot(s.velocity[i][0], s.velocity[i][1], s.velocity[i][2]); };
-  switch (by) {
-    case ColorBy::Density:
-      return scale > 0 ? colormap(s.density[i] / scale) : snow_white;
-    case ColorBy::Speed:
-      return scale > 0 ? colormap(speed() / scale) : snow_white;
-    case ColorBy::Plastic:
-      // J_P = 1 white; 0.8 (compressed by a fifth) full red; 1.2 full blue.
-      return colormap(0.5f + 2.5f * (1.f - s.plastic_j[i]));
-    case ColorBy::White:
-      break;
-  }
-  return snow_white;
-}
-
 }  // namespace
 
 namespace {
-
-struct View {
-  glm::mat4 view, projection;
-};
-
-// 2D: the whole domain, orthographic, with a margin. 3D: the scene's camera, or by default a
-// perspective view of the whole domain from the front, above and to the right.
-View cameraFor(const Snapshot& s, const RenderSettings& settings, glm::vec3 extent) {
-  const glm::vec3 centre = 0.5f * extent;
-  const float aspect = float(settings.width) / float(settings.height);
-  if (s.grid.dimension == 2) {
-    const float half_height = 0.55f * std::max(extent.y, extent.x / aspect);
-    return {glm::translate(glm::mat4(1), -glm::vec3(centre.x, centre.y, 1.f)),
-            glm::ortho(-half_height * aspect, half_height * aspect, -half_height, half_height,
-                       0.01f, 10.f)};
-  }
-  const float size = std::max({extent.x, extent.y, extent.z});
-  const Camera& c = settings.camera;
-  auto vec = [](const std::array<double, 3>& a) { return glm::vec3(a[0], a[1], a[2]); };
-  const glm::vec3 eye =
-      c.custom ? vec(c.eye) : centre + glm::vec3(0.6f * size, 0.5f * size, 2.2f * size);
-  const glm::vec3 target = c.custom ? vec(c.target) : centre;
-  const float distance = glm::length(eye - target) + size;
-  return {
-      glm::lookAt(eye, target, c.custom ? vec(c.up) : glm::vec3(0, 1, 0)),
-      glm::perspective(glm::radians(float(c.fov_degrees)), aspect, 0.01f * size, 4.f * distance)};
-}
-
-// Appends one line segment (two vertices of position and colour).
-void addLine(std::vector<float>& out, glm::vec3 a, glm::vec3 b, glm::vec3 colour) {
-  for (const glm::vec3& p : {a, b})
-    out.insert(out.end(), {p.x, p.y, p.z, colour.r, colour.g, colour.b});
-}
-
-// The grid: thin cell lines on the back plane, the walls and the ground drawn brighter.
-void gridLines(const Snapshot& s, glm::vec3 extent, std::vector<float>& out) {
-  const float cell = static_cast<float>(s.grid.cell_size);
-  const glm::vec3 thin(0.36f, 0.39f, 0.45f), wall(0.75f, 0.78f, 0.85f), ground(0.55f, 0.42f, 0.3f);
-  for (int i = 0; i <= s.grid.cells[0]; ++i) {
-    const bool edge = i == 0 || i == s.grid.cells[0];
-    addLine(out, {i * cell, 0, 0}, {i * cell, extent.y, 0}, edge ? wall : thin);
-  }
-  for (int j = 0; j <= s.grid.cells[1]; ++j) {
-    const bool edge = j == s.grid.cells[1];
-    addLine(out, {0, j * cell, 0}, {extent.x, j * cell, 0}, j == 0 ? ground : edge ? wall : thin);
-  }
-  if (s.grid.dimension == 3)
-    for (int k = 0; k <= s.grid.cells[2]; ++k)
-      addLine(out, {0, 0, k * cell}, {extent.x, 0, k * cell}, ground);
-}
-
-// 2D: each node's cell (side h, centred on the node, clipped to the domain) shaded by its density
-// against the critical density: the background turning blue below it, amber at or above it.
-void densityCells(const Snapshot& s, glm::vec3 extent, std::vector<float>& out) {
-  const auto& d = s.grid.node_density;
-  const int nx = s.grid.cells[0] + 1, ny = s.grid.cells[1] + 1;
-  if (s.grid.dimension != 2 || static_cast<int>(d.size()) != nx * ny) return;
-  float reference = static_cast<float>(s.grid.critical_density);
-  if (!(reference > 0)) reference = *std::max_element(d.begin(), d.end());
-  if (!(reference > 0)) return;
-  const float h = static_cast<float>(s.grid.cell_size), z = -0.002f;  // just behind the lines
-  const glm::vec3 background(0.2f, 0.22f, 0.27f), loose(0.25f, 0.45f, 0.75f),
-      critical(0.95f, 0.62f, 0.15f);
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const float ratio = d[static_cast<size_t>(j) * nx + i] / reference;
-      if (ratio <= 0) continue;
-      const glm::vec3 colour =
-          ratio >= 1 ? critical : glm::mix(background, loose, std::min(ratio, 1.f));
-      const float x0 = std::max(0.f, (i - 0.5f) * h), x1 = std::min(extent.x, (i + 0.5f) * h);
-      const float y0 = std::max(0.f, (j - 0.5f) * h), y1 = std::min(extent.y, (j + 0.5f) * h);
-      for (const glm::vec2& p : {glm::vec2(x0, y0), glm::vec2(x1, y0), glm::vec2(x1, y1),
-                                 glm::vec2(x0, y0), glm::vec2(x1, y1), glm::vec2(x0, y1)})
-        out.insert(out.end(), {p.x, p.y, z, colour.r, colour.g, colour.b});
-    }
-}
 
 void setCamera(GLuint program, const View& v) {
   glUseProgram(program);
@@ -533,9 +436,9 @@ Image Renderer::render(const Snapshot& s) {
   const bool sprites = s.size() > 0 && radius_pixels < settings_.lod_pixels;
 
   g.cells.clear();
-  if (settings_.density_cells) densityCells(s, extent, g.cells);
+  if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
-  if (settings_.show_grid) gridLines(s, extent, g.lines);
+  if (settings_.show_grid) gridLines(s, extent, camera, w, h, palette.background, g.lines);
   g.meshes.clear();
   if (s.grid.dimension == 3)
     appendGround(extent, 0.3f * std::max(extent.x, extent.z), palette.ground, g.meshes);
@@ -589,22 +492,12 @@ void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settin
   if (settings.color_by == ColorBy::Plastic && static_cast<int>(s.plastic_j.size()) != s.size())
     throw InputError("--color-by plastic: frame " + std::to_string(s.frame) +
                      " has no plastic compression (J_P); only MPM runs carry it");
-  // Colour scale: density against twice the critical density (or the frame's largest), speed
-  // against the frame's largest speed.
-  float scale = 0;
-  for (int i = 0; i < s.size(); ++i) {
-    if (settings.color_by == ColorBy::Density && !s.density.empty())
-      scale = std::max(scale, s.density[i]);
-    if (settings.color_by == ColorBy::Speed)
-      scale = std::max(scale, std::hypot(s.velocity[i][0], s.velocity[i][1], s.velocity[i][2]));
-  }
-  if (settings.color_by == ColorBy::Density && s.grid.critical_density > 0)
-    scale = static_cast<float>(2 * s.grid.critical_density);
+  const ColourRange range = colourRange(settings, s);
   const ColorBy by = settings.color_by == ColorBy::Density && s.density.empty() ? ColorBy::White
                                                                                 : settings.color_by;
   g.instances.resize(6 * static_cast<size_t>(s.size()));
   for (int i = 0; i < s.size(); ++i) {
-    const glm::vec3 colour = particleColour(s, i, by, scale);
+    const glm::vec3 colour = particleColour(s, i, by, range);
     std::copy_n(s.position[i].data(), 3, &g.instances[6 * static_cast<size_t>(i)]);
     std::copy_n(&colour.r, 3, &g.instances[6 * static_cast<size_t>(i) + 3]);
   }

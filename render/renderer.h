@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "render/camera.h"
 #include "render/image.h"
 #include "sim/core/snapshot.h"
 
@@ -29,11 +30,9 @@ enum class Look { Studio, Figure };
 // Parses "studio", "figure"; throws InputError listing the allowed names.
 Look parseLook(const std::string& name, const std::string& where = "--look");
 
-// A perspective camera for 3D scenes, in world coordinates (metres).
-struct Camera {
-  bool custom = false;  // false: the default view of the whole domain
-  std::array<double, 3> eye{}, target{}, up{0, 1, 0};
-  double fov_degrees = 35;  // vertical field of view
+// The values the colour map spans: low is its first colour, high its last.
+struct ColourRange {
+  double low = 0, high = 0;
 };
 
 struct RenderSettings {
@@ -49,6 +48,9 @@ struct RenderSettings {
   std::optional<std::array<double, 3>> background;  // RGB in [0, 1]; none: the look's
   bool shadows = true;                              // 3D: the key light casts shadows (shadow map)
   bool occlusion = true;                            // 3D: screen-space ambient occlusion
+  // Fixed for a run so that colours mean the same in every frame; none: render/colour.h's
+  // default for the attribute.
+  std::optional<ColourRange> color_range;
 };
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.

@@ -1,7 +1,9 @@
 #include "sim/scene/sampling.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 
 namespace snowsim {
 
@@ -30,6 +32,27 @@ double particleSpacing(const Scene& scene, const Body& body) {
   return scene.cell_size / per_axis;
 }
 
+namespace {
+
+// SplitMix64 (Steele, Lea and Flood 2014): a well-mixed 64-bit hash of a counter.
+std::uint64_t splitMix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+double latticeJitter(int seed, int body, const std::array<int, 3>& k, int axis) {
+  // Lattice indices stay below 2^16 (4096 cells of at most 10 points a side).
+  const std::uint64_t key = (((static_cast<std::uint64_t>(k[2]) << 16 | k[1]) << 16 | k[0]) << 2 |
+                             static_cast<std::uint64_t>(axis)) ^
+                            static_cast<std::uint64_t>(body) << 58;
+  const std::uint64_t hash = splitMix64(splitMix64(static_cast<std::uint64_t>(seed)) ^ key);
+  return static_cast<double>(hash >> 11) * 0x1.0p-53 - 0.5;
+}
+
 template <int D>
 Particles<D> sampleBodies(const Scene& scene) {
   Particles<D> particles;
@@ -56,7 +79,7 @@ Particles<D> sampleBodies(const Scene& scene) {
     Vec<D> velocity;
     for (int a = 0; a < D; ++a) velocity[a] = a < shape_dim ? body.velocity[a] : 0.0;
 
-    int k[3];
+    std::array<int, 3> k{};
     for (k[2] = lo[2]; k[2] <= (D == 3 ? hi[2] : 0); ++k[2])
       for (k[1] = lo[1]; k[1] <= hi[1]; ++k[1])
         for (k[0] = lo[0]; k[0] <= hi[0]; ++k[0]) {
@@ -64,7 +87,10 @@ Particles<D> sampleBodies(const Scene& scene) {
           Vec<D> x;
           bool inside_domain = true;
           for (int a = 0; a < D; ++a) {
-            p[a] = (k[a] + 0.5) * spacing;
+            const double jitter = body.seeding == Seeding::Jittered
+                                      ? latticeJitter(scene.seed, static_cast<int>(b), k, a)
+                                      : 0.0;
+            p[a] = (k[a] + 0.5 + jitter) * spacing;
             x[a] = p[a];
             inside_domain &= k[a] >= 0 && p[a] < scene.cells[a] * h;
           }

@@ -1,6 +1,10 @@
 // Particle generation: each body is filled with a regular lattice of particles_per_cell points per
 // cell (n per axis at the cell-relative positions (k + 1/2) / n), keeping the points inside it.
+// Jittered seeding moves each point to a random place in its lattice cell, (k + 1/2 + u) / n
+// with u in [-1/2, 1/2) per axis, repeatable for the scene's seed.
 #pragma once
+
+#include <array>
 
 #include "sim/core/particles.h"
 #include "sim/scene/scene.h"
@@ -12,6 +16,10 @@ bool bodyContains(const Body& body, const Vec3& p, int shape_dimension);
 
 // Distance between neighbouring particles of a body's lattice.
 double particleSpacing(const Scene& scene, const Body& body);
+
+// The offset u of lattice point k along an axis, in [-1/2, 1/2): a hash of the seed, the body's
+// index, k and the axis, so a body's particles do not depend on the order they are made in.
+double latticeJitter(int seed, int body, const std::array<int, 3>& k, int axis);
 
 // Fills every body of the scene. A 2D-authored scene run in 3D extrudes each body through the
 // slab's whole depth.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "sim/scene/json_fields.h"
@@ -225,6 +226,13 @@ std::string latticeProblem(int count, int dimension) {
          "; allowed: " + (dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ...");
 }
 
+Seeding parseSeeding(JsonFields& f, Seeding fallback) {
+  return f.choice("seeding", {"lattice", "jittered"},
+                  fallback == Seeding::Jittered ? "jittered" : "lattice") == "jittered"
+             ? Seeding::Jittered
+             : Seeding::Lattice;
+}
+
 // `scene_fields` reads the scene's top level: a default count that fills no lattice is its fault.
 Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& scene_fields) {
   const std::string path = "bodies[" + std::to_string(index) + "]";
@@ -254,6 +262,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
       !problem.empty())
     (b.own_particles_per_cell ? f : scene_fields).fail("particles_per_cell", problem);
   b.density = f.number("density", b.density, 0, 1e6, true);
+  b.seeding = parseSeeding(f, scene.seeding);
   f.finish();
 
   // The body's bounding box must lie inside the domain.
@@ -297,12 +306,24 @@ SceneRender parseRender(const Json* j, const std::string& file) {
   if (const Json* camera = f.object("camera", false)) {
     JsonFields c(*camera, "render.camera", file);
     SceneCamera& view = r.camera.emplace();
-    view.eye = point(c, "eye", std::nullopt);
-    view.target = point(c, "target", std::nullopt);
-    view.up = point(c, "up", std::vector<double>{0, 1, 0});
+    if (c.given("preset")) {
+      view.preset = c.choice("preset", {"front", "side", "three_quarter", "top"}, std::nullopt);
+      for (const char* placed : {"eye", "target", "up"})
+        if (c.has(placed))
+          c.fail(placed, "a camera has a preset or is placed (eye, target, up), not both");
+    } else {
+      view.eye = point(c, "eye", std::nullopt);
+      view.target = point(c, "target", std::nullopt);
+      view.up = point(c, "up", std::vector<double>{0, 1, 0});
+      if (view.eye == view.target) c.fail("target", "must differ from eye");
+    }
     if (c.given("fov")) view.fov = c.number("fov", std::nullopt, 0, 180, true, true);
-    if (view.eye == view.target) c.fail("target", "must differ from eye");
     c.finish();
+  }
+  if (f.given("color_range")) {
+    const std::vector<double> range = f.numbers("color_range", std::nullopt, {2});
+    if (!(range[0] < range[1])) f.fail("color_range", "must be [low, high] with low < high");
+    r.color_range = {range[0], range[1]};
   }
   f.finish();
   return r;
@@ -360,6 +381,8 @@ Scene parseScene(const Json& root, const std::string& file) {
 
   s.particles_per_cell =
       f.integer("particles_per_cell", s.authored_dimension == 2 ? 9 : 27, 1, 1000);
+  s.seeding = parseSeeding(f, s.authored_dimension == 3 ? Seeding::Jittered : Seeding::Lattice);
+  s.seed = f.integer("seed", s.seed, 0, std::numeric_limits<int>::max());
   const Json* bodies = f.array("bodies", true);
   if (bodies->empty()) f.fail("bodies", "needs at least one body");
   for (size_t i = 0; i < bodies->size(); ++i)

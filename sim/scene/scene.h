@@ -16,6 +16,9 @@ using Vec3 = std::array<double, 3>;
 
 enum class SolverType { DensityHybrid, Mpm };
 enum class BodyShape { Ball, Box, HalfBall };
+// Where a body's particles sit in their lattice cells: at the centres, or each at a random point
+// of its cell (deterministic for the scene's seed), which breaks the lattice's stripes in 3D.
+enum class Seeding { Lattice, Jittered };
 
 // The readings of the report's vague passages (docs/report-readings.md).
 enum class CriticalReference {
@@ -80,38 +83,42 @@ struct ColliderParams {
 struct Body {
   std::string name;
   BodyShape shape = BodyShape::Ball;
-  Vec3 center{};                // ball and half ball centre, box centre (m)
-  double radius = 0;            // ball and half ball (m)
-  Vec3 size{};                  // box extents (m)
-  Vec3 cut_normal{0, 1, 0};     // half ball: keeps the points with (x - center) . n >= 0
-  Vec3 velocity{};              // initial velocity (m/s)
-  int particles_per_cell = 27;  // particles per cell of the scene's authored dimension
-  double density = 400;         // kg/m^3
+  Vec3 center{};                       // ball and half ball centre, box centre (m)
+  double radius = 0;                   // ball and half ball (m)
+  Vec3 size{};                         // box extents (m)
+  Vec3 cut_normal{0, 1, 0};            // half ball: keeps the points with (x - center) . n >= 0
+  Vec3 velocity{};                     // initial velocity (m/s)
+  int particles_per_cell = 27;         // particles per cell of the scene's authored dimension
+  double density = 400;                // kg/m^3
+  Seeding seeding = Seeding::Lattice;  // the scene's unless the body gives its own
   // The body gives its particles_per_cell; else it has the scene's default.
   bool own_particles_per_cell = false;
 };
 
-// A 3D camera of the `render` object: eye and target are required, the rest optional.
+// A 3D camera of the `render` object: placed (eye and target, up optional) or a preset that
+// frames the snow; either way an optional field of view.
 struct SceneCamera {
-  Vec3 eye{};                 // m
-  Vec3 target{};              // m, differs from eye
-  Vec3 up{0, 1, 0};           // the image's up direction
-  std::optional<double> fov;  // vertical field of view, degrees in (0, 180)
+  std::optional<std::string> preset;  // "front", "side", "three_quarter" or "top"; none: placed
+  Vec3 eye{};                         // m
+  Vec3 target{};                      // m, differs from eye
+  Vec3 up{0, 1, 0};                   // the image's up direction
+  std::optional<double> fov;          // vertical field of view, degrees in (0, 180)
 };
 
 // The scene's `render` object: how `snowsim run` draws it (docs/scene-format.md). A field left
 // out takes the renderer's default; render/scene_render.h turns this into RenderSettings.
 struct SceneRender {
-  std::optional<int> width, height;     // pixels, 16 to 8192
-  std::optional<std::string> color_by;  // "white", "density", "speed" or "plastic"
-  std::optional<double> sphere_radius;  // m in [0, 10]; 0: half the particle spacing
-  std::optional<bool> grid;             // draw the cell lines, walls and ground
-  std::optional<bool> density_cells;    // 2D: shade each cell by its density
-  std::optional<SceneCamera> camera;    // 3D; none: the default view of the whole domain
-  std::optional<std::string> look;      // "studio" (dark background) or "figure" (white)
-  std::optional<Vec3> background;       // RGB, each in [0, 1]; none: the look's
-  std::optional<bool> shadows;          // 3D: the key light casts shadows
-  std::optional<bool> occlusion;        // 3D: ambient occlusion between spheres
+  std::optional<int> width, height;                  // pixels, 16 to 8192
+  std::optional<std::string> color_by;               // "white", "density", "speed" or "plastic"
+  std::optional<double> sphere_radius;               // m in [0, 10]; 0: half the particle spacing
+  std::optional<bool> grid;                          // draw the cell lines, walls and ground
+  std::optional<bool> density_cells;                 // 2D: shade each cell by its density
+  std::optional<SceneCamera> camera;                 // 3D; none: the three-quarter preset
+  std::optional<std::array<double, 2>> color_range;  // the values the colour map spans, low < high
+  std::optional<std::string> look;                   // "studio" (dark background) or "figure"
+  std::optional<Vec3> background;                    // RGB, each in [0, 1]; none: the look's
+  std::optional<bool> shadows;                       // 3D: the key light casts shadows
+  std::optional<bool> occlusion;                     // 3D: ambient occlusion between spheres
 };
 
 struct Scene {
@@ -133,6 +140,10 @@ struct Scene {
   double fps = 50;        // frames written per simulated second
   // The particles per cell of every body that gives none: 9 in 2D, 27 in 3D unless the file says.
   int particles_per_cell = 9;
+  // Jittered for scenes authored in 3D, else on the lattice, unless the file says; the seed makes
+  // the jitter repeatable.
+  Seeding seeding = Seeding::Lattice;
+  int seed = 1;
   std::vector<Body> bodies;
   SceneRender render;
 

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/image.h"
 #include "tests/cli/run_snowsim.h"
 
 namespace {
@@ -540,6 +541,35 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   EXPECT_FALSE(fs::exists(out / "again"));
 }
 
+std::vector<std::uint8_t> fileBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// A 3D run records the camera that framed its snow; `snowsim render` draws the saved frames
+// with it (the same image), or frames them anew from a preset it is given.
+TEST(Cli, RenderReusesTheCameraOfTheRun) {
+  const fs::path out = freshDir("camera");
+  const std::string size = " --width 160 --height 120 --no-mp4";
+  Result r = runSnowsim("run " + scene("study_smash_3d") + " -o " + out.string() +
+                        " --set time.duration=0.02 --set time.fps=50" + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto camera = nlohmann::json::parse(std::ifstream(out / "run.json"))["camera"];
+  EXPECT_EQ(camera["preset"], "three_quarter");
+  EXPECT_EQ(camera["eye"].size(), 3u);
+  r = runSnowsim("render " + out.string() + " -o " + (out / "again").string() + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(fileBytes(out / "again" / "frame_00001.png"), fileBytes(out / "frame_00001.png"));
+  r = runSnowsim("render " + out.string() + " -o " + (out / "top").string() +
+                 " --camera-preset top" + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(fileBytes(out / "top" / "frame_00001.png"), fileBytes(out / "frame_00001.png"));
+  r = runSnowsim("render " + out.string() + " --camera-preset below" + size);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("allowed: front, side, three_quarter, top"), std::string::npos)
+      << r.output;
+}
+
 TEST(Cli, UnwritableOutputDirectoryIsBadInput) {
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o /proc/snowsim_out");
   EXPECT_EQ(r.code, 2) << r.output;
@@ -570,18 +600,42 @@ TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
   ASSERT_EQ(r.code, 0) << r.output;
   const fs::path png = out / "fig6.png";
   ASSERT_TRUE(fs::exists(png));
-  // Three rows of one 320x352 panel, each with a label strip: a tall, narrow image.
+  // The title, then three rows of one 320x352 panel, each with a label strip: a tall, narrow
+  // image.
   std::ifstream in(png, std::ios::binary);
   unsigned char header[24];
   in.read(reinterpret_cast<char*>(header), 24);
   const int width = header[16] << 24 | header[17] << 16 | header[18] << 8 | header[19];
   const int height = header[20] << 24 | header[21] << 16 | header[22] << 8 | header[23];
   EXPECT_EQ(width, 320 + 2 * 8);
-  EXPECT_EQ(height, 8 + 3 * (352 + 34 + 8));
+  EXPECT_EQ(height, 44 + 8 + 3 * (352 + 34 + 8));
 
   const Result unknown = runSnowsim("figure fig9 -o " + out.string());
   EXPECT_EQ(unknown.code, 2);
   EXPECT_NE(unknown.output.find("allowed: fig1"), std::string::npos) << unknown.output;
+}
+
+// Any scene's strip, here a 3D one coloured by J_P: the panels at the times asked, the title
+// above and a viridis colour bar below, dark violet at its low end and yellow at its high end.
+TEST(Cli, FigureOfAnyScene) {
+  const fs::path out = freshDir("scene_figure");
+  const Result r =
+      runSnowsim("figure " + scene("study_smash_3d") +
+                 " --times 0,0.02 --color-by plastic --width 160 --height 120 -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const snowsim::Image image = snowsim::readPng((out / "study_smash_3d.png").string());
+  EXPECT_EQ(image.width, 8 + 2 * (160 + 8));
+  EXPECT_EQ(image.height, 44 + 8 + (120 + 34 + 8) + 64);
+  const int bar_y = image.height - 64 + 9, bar_x0 = 40, bar_x1 = image.width - 40 - 1;
+  const auto *low = image.pixel(bar_x0, bar_y), *high = image.pixel(bar_x1, bar_y);
+  EXPECT_GT(low[2], low[1] + 50) << "viridis starts dark violet";
+  EXPECT_GT(high[0], 200) << "and ends yellow";
+  EXPECT_LT(high[2], 80);
+
+  const Result late =
+      runSnowsim("figure " + scene("study_smash_3d") + " --times 0,9 -o " + out.string());
+  EXPECT_EQ(late.code, 2);
+  EXPECT_NE(late.output.find("--times: 9"), std::string::npos) << late.output;
 }
 
 // A one-row figure of the first 0.02 s of the snowball drop, in a scenes directory of its own.

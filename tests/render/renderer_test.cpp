@@ -43,6 +43,10 @@ bool isBackground(const Image& image, int x, int y) {
   return std::abs(p[0] - 51) <= 2 && std::abs(p[1] - 56) <= 2 && std::abs(p[2] - 69) <= 2;
 }
 
+int colourDistance(const std::uint8_t* a, const std::uint8_t* b) {
+  return std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+}
+
 RenderSettings testSettings(ColorBy color_by = ColorBy::White) {
   RenderSettings settings;
   settings.width = kWidth;
@@ -78,6 +82,8 @@ TEST(Renderer, EmptySceneShowsOnlyTheGrid) {
   EXPECT_LT(bright, 4000) << "and nothing else is";
   const auto [lx, ly] = pixelOf(0.05, 0.055);
   EXPECT_FALSE(isBackground(image, lx, ly)) << "a cell line at x = 0.05 m";
+  const auto [ox, oy] = pixelOf(0.03, 0.055);
+  EXPECT_FALSE(isBackground(image, ox, oy)) << "large cells keep every line, as in the report";
   const auto [bx, by] = pixelOf(0.055, 0.055);
   EXPECT_TRUE(isBackground(image, bx, by)) << "inside a cell";
   const auto [gx, gy] = pixelOf(0.055, 0.0);
@@ -85,6 +91,11 @@ TEST(Renderer, EmptySceneShowsOnlyTheGrid) {
   EXPECT_TRUE(isBackground(image, 5, 5)) << "outside the domain";
 }
 
+double luminance(const std::uint8_t* p) {
+  return 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2];
+}
+
+// Viridis: low values dark violet, high ones bright yellow.
 TEST(Renderer, ColourByDensityDiffersWhereDensityDiffers) {
   Snapshot s = emptyDomain(2);
   s.grid.critical_density = 100;
@@ -95,8 +106,30 @@ TEST(Renderer, ColourByDensityDiffersWhereDensityDiffers) {
   const auto [lx, ly] = pixelOf(0.025, 0.06);
   const auto [hx, hy] = pixelOf(0.075, 0.06);
   const auto *low = image.pixel(lx, ly), *high = image.pixel(hx, hy);
-  EXPECT_GT(low[2], low[0] + 40) << "low density is blue";
-  EXPECT_GT(high[0], high[2] + 40) << "high density is red";
+  EXPECT_GT(low[2], low[1] + 40) << "low density is violet";
+  EXPECT_GT(high[0], high[2] + 80) << "high density is yellow";
+  EXPECT_GT(luminance(high), luminance(low) + 80);
+}
+
+// A fixed range: a particle keeps its colour when a faster one joins it in a later frame.
+TEST(Renderer, ColourRangeIsTheSameInEveryFrame) {
+  RenderSettings settings = testSettings(ColorBy::Speed);
+  settings.color_range = ColourRange{0, 4};
+  Renderer renderer(settings);
+  Snapshot s = emptyDomain(2);
+  s.grid.particle_spacing = 0.01;
+  addParticle(s, 0.025, 0.06, 0);
+  s.velocity[0] = {1, 0, 0};
+  const Image first = renderer.render(s);
+  addParticle(s, 0.075, 0.06, 0);
+  s.velocity[1] = {0, -8, 0};
+  const Image second = renderer.render(s);
+  const auto [px, py] = pixelOf(0.025, 0.06);
+  EXPECT_EQ(std::vector<std::uint8_t>(first.pixel(px, py), first.pixel(px, py) + 3),
+            std::vector<std::uint8_t>(second.pixel(px, py), second.pixel(px, py) + 3));
+  RenderSettings empty = settings;
+  empty.color_range = ColourRange{2, 2};
+  EXPECT_THROW(validate(empty), InputError);
 }
 
 TEST(Renderer, ThreeDimensionalScenesRender) {
@@ -137,8 +170,9 @@ TEST(Renderer, PlasticColouringShowsCompressionAndStretch) {
   const Image image = renderer.render(s);
   const auto [cx, cy] = pixelOf(0.025, 0.06);
   const auto [sx, sy] = pixelOf(0.075, 0.06);
-  EXPECT_GT(image.pixel(cx, cy)[0], image.pixel(cx, cy)[2] + 40) << "compressed: red";
-  EXPECT_GT(image.pixel(sx, sy)[2], image.pixel(sx, sy)[0] + 40) << "stretched: blue";
+  EXPECT_GT(image.pixel(cx, cy)[2], image.pixel(cx, cy)[1] + 40) << "compressed: dark violet";
+  EXPECT_GT(luminance(image.pixel(sx, sy)), luminance(image.pixel(cx, cy)) + 80)
+      << "stretched: bright";
   s.plastic_j.clear();
   EXPECT_THROW(renderer.render(s), InputError) << "the report's method has no J_P";
 }
@@ -198,6 +232,81 @@ TEST(Renderer, SceneCameraLooksWhereItIsTold) {
   const auto* centre = at.pixel(kWidth / 2, kHeight / 2);
   EXPECT_GT(centre[2], 150) << "the sphere at the image centre";
   EXPECT_LT(away.pixel(kWidth / 2, kHeight / 2)[2], 150) << "looking past it";
+}
+
+// Moire shows as energy at the highest spatial frequencies: the mean distance of each pixel's
+// luminance from the mean of its 3x3 neighbourhood. Lines a pixel or two apart give it in
+// quantity; lines a viewer can resolve, at most a fraction of it.
+double highFrequencyEnergy(const Image& image) {
+  double sum = 0;
+  for (int y = 1; y + 1 < image.height; ++y)
+    for (int x = 1; x + 1 < image.width; ++x) {
+      double neighbourhood = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) neighbourhood += luminance(image.pixel(x + dx, y + dy));
+      sum += std::abs(luminance(image.pixel(x, y)) - neighbourhood / 9);
+    }
+  return sum / ((image.width - 2.0) * (image.height - 2.0));
+}
+
+// A 3D domain of 120x80x80 cells of 5 mm at the default 1280x720: drawing every cell line (the
+// back wall's 3-4 pixels apart, the floor's one or two) gives 2.35; the lines a viewer can
+// resolve, 1.1.
+TEST(Renderer, FineGridsRenderWithoutMoire) {
+  Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {120, 80, 80};
+  s.grid.cell_size = 0.005;
+  EXPECT_LT(highFrequencyEnergy(Renderer(RenderSettings{}).render(s)), 1.6);
+}
+
+// The preset camera frames the snow's box: a small ball in a corner of a large domain fills the
+// image's height, from every preset, and stays within the image.
+TEST(Renderer, PresetCameraFramesTheSnow) {
+  Snapshot s = emptyDomain(3);
+  s.grid.cells = {100, 60, 80};
+  s.grid.particle_spacing = 0.002;
+  for (int i = 0; i < 1000; ++i) {
+    const float x = (i % 10) * 0.002f, y = (i / 10 % 10) * 0.002f, z = (i / 100) * 0.002f;
+    addParticle(s, 0.1f + x, 0.05f + y, 0.1f + z);
+  }
+  for (CameraPreset preset :
+       {CameraPreset::ThreeQuarter, CameraPreset::Front, CameraPreset::Side, CameraPreset::Top}) {
+    RenderSettings settings = testSettings();
+    settings.show_grid = false;
+    settings.shadows = settings.occlusion = false;  // only the snow differs from the empty frame
+    settings.camera.preset = preset;
+    settings.camera.frame = particleBounds(s);
+    Renderer renderer(settings);
+    const Image image = renderer.render(s);
+    Snapshot empty = s;
+    empty.position.clear();
+    empty.velocity.clear();
+    const Image without_snow = renderer.render(empty);
+    // Rows and columns with snow: at least 3 pixels that differ from the empty frame (the
+    // horizon of the ground may move by a pixel; a line of one pixel a column is not snow).
+    std::vector<int> per_row(kHeight), per_column(kWidth);
+    for (int y = 0; y < kHeight; ++y)
+      for (int x = 0; x < kWidth; ++x)
+        if (colourDistance(image.pixel(x, y), without_snow.pixel(x, y)) > 24)
+          ++per_row[y], ++per_column[x];
+    const auto first = [](const std::vector<int>& v) {
+      return int(std::find_if(v.begin(), v.end(), [](int n) { return n >= 3; }) - v.begin());
+    };
+    const auto last = [](const std::vector<int>& v) {
+      return int(v.rend() - std::find_if(v.rbegin(), v.rend(), [](int n) { return n >= 3; })) - 1;
+    };
+    const int top = first(per_row), bottom = last(per_row);
+    const int left = first(per_column), right = last(per_column);
+    const std::string name = presetName(preset);
+    EXPECT_GT(bottom - top, kHeight / 2) << name << ": the snow fills the frame";
+    EXPECT_GT(top, 0) << name;
+    EXPECT_LT(bottom, kHeight - 1) << name;
+    EXPECT_GT(left, 0) << name;
+    EXPECT_LT(right, kWidth - 1) << name;
+  }
+  EXPECT_EQ(parseCameraPreset("side", "--camera-preset"), CameraPreset::Side);
+  EXPECT_THROW(parseCameraPreset("below", "--camera-preset"), InputError);
 }
 
 TEST(Image, PngRoundTripsAndWritesAtomically) {

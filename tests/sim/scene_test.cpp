@@ -235,6 +235,28 @@ TEST(Scene, RenderLookBackgroundShadowsAndOcclusion) {
   EXPECT_NE(errorOf(kMinimal, {"render.shadows=3"}).find("render.shadows"), std::string::npos);
 }
 
+TEST(Scene, RenderCameraPresetAndColourRange) {
+  std::string text = kMinimal;
+  text.insert(text.rfind('}'), R"(, "render": {"camera": {"preset": "side", "fov": 40},
+    "color_range": [0, 3.5]})");
+  const Scene s = loadScene(writeTemp(text));
+  ASSERT_TRUE(s.render.camera.has_value());
+  EXPECT_EQ(s.render.camera->preset, "side");
+  EXPECT_EQ(s.render.camera->fov, 40);
+  ASSERT_TRUE(s.render.color_range.has_value());
+  EXPECT_DOUBLE_EQ((*s.render.color_range)[1], 3.5);
+
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"preset": "below"})"})
+                .find(R"(render.camera.preset: "below" is not allowed; allowed: "front")"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {R"(render.camera={"preset": "top", "eye": [1, 1, 1]})"})
+                .find("render.camera.eye: a camera has a preset or is placed"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"render.color_range=[2, 1]"})
+                .find("render.color_range: must be [low, high] with low < high"),
+            std::string::npos);
+}
+
 // Typed changes keep every digit: a third of a centimetre halved is exactly half of it.
 TEST(Scene, RefiningTheGridKeepsTheDomainAndEveryDigit) {
   const double h = 0.01 / 3;
@@ -353,6 +375,49 @@ TEST(Scene, EveryShippedSceneLoads) {
     ++scenes;
   }
   EXPECT_GE(scenes, 12);
+}
+
+const std::string kBall3d = R"({
+  "name": "ball3d", "dimension": 3,
+  "grid": {"cells": [10, 10, 10], "cell_size": 0.01},
+  "particles_per_cell": 8,
+  "bodies": [{"shape": "ball", "center": [0.05, 0.05, 0.05], "radius": 0.03}]
+})";
+
+// 3D scenes are seeded jittered by default: each particle at a random point of its lattice cell,
+// the same for the same seed, inside the body, as many as the lattice gives (to a few percent),
+// the offsets spread evenly over the cell.
+TEST(Scene, JitteredSeedingIsRepeatableAndStaysInItsCells) {
+  const std::string path = writeTemp(kBall3d);
+  const Scene scene = loadScene(path);
+  EXPECT_EQ(scene.bodies[0].seeding, Seeding::Jittered);
+  const Particles<3> a = sampleBodies<3>(scene), b = sampleBodies<3>(loadScene(path));
+  EXPECT_EQ(a.x, b.x) << "the same seed, the same particles";
+  const Particles<3> other = sampleBodies<3>(loadScene(path, {"seed=2"}));
+  EXPECT_NE(a.x, other.x);
+  const Scene lattice_scene = loadScene(path, {"seeding=lattice"});
+  EXPECT_EQ(lattice_scene.bodies[0].seeding, Seeding::Lattice);
+  const Particles<3> lattice = sampleBodies<3>(lattice_scene);
+  EXPECT_NEAR(a.size(), lattice.size(), 0.03 * lattice.size());
+
+  const double spacing = particleSpacing(scene, scene.bodies[0]);
+  double sum = 0, squares = 0;
+  for (const auto& x : a.x) {
+    EXPECT_TRUE(bodyContains(scene.bodies[0], {x[0], x[1], x[2]}, 3));
+    for (int axis = 0; axis < 3; ++axis) {
+      const double u = x[axis] / spacing - std::floor(x[axis] / spacing) - 0.5;
+      sum += u;
+      squares += u * u;
+    }
+  }
+  const double n = 3.0 * a.size();
+  EXPECT_NEAR(sum / n, 0, 0.02) << "offsets centred in the cell";
+  EXPECT_NEAR(squares / n, 1.0 / 12, 0.01) << "spread as a uniform over the cell";
+
+  EXPECT_EQ(loadScene(writeTemp(kMinimal)).bodies[0].seeding, Seeding::Lattice) << "2D: lattice";
+  EXPECT_NE(errorOf(kBall3d, {"bodies.0.seeding=random"})
+                .find(R"(bodies[0].seeding: "random" is not allowed; allowed: "lattice")"),
+            std::string::npos);
 }
 
 }  // namespace

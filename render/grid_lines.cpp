@@ -1,0 +1,100 @@
+#include "render/grid_lines.h"
+
+#include <algorithm>
+
+namespace snowsim {
+
+namespace {
+
+// Appends one line segment (two vertices of position and colour).
+void addLine(std::vector<float>& out, glm::vec3 a, glm::vec3 b, glm::vec3 colour) {
+  for (const glm::vec3& p : {a, b})
+    out.insert(out.end(), {p.x, p.y, p.z, colour.r, colour.g, colour.b});
+}
+
+// The largest of the nested levels 1, 5, 10, 50, 100, ... cells that divides line `index`.
+int lineLevel(int index) {
+  int level = 1, next = 5;
+  for (bool doubling = true; index % next == 0 && next < (1 << 28); doubling = !doubling) {
+    level = next;
+    next *= doubling ? 2 : 5;
+  }
+  return level;
+}
+
+// How far apart on screen two lines one cell apart are, around point p with the step between
+// them; lines behind the camera count as far apart (they are clipped anyway).
+float pixelsPerCell(const View& view, int width, int height, glm::vec3 p, glm::vec3 step) {
+  const glm::mat4 to_clip = view.projection * view.view;
+  const glm::vec4 a = to_clip * glm::vec4(p, 1), b = to_clip * glm::vec4(p + step, 1);
+  if (a.w <= 0 || b.w <= 0) return 1e9f;
+  const glm::vec2 d = glm::vec2(a) / a.w - glm::vec2(b) / b.w;
+  return glm::length(d * 0.5f * glm::vec2(width, height));
+}
+
+// A cell line's colour faded by its on-screen spacing; zero opacity: not drawn.
+float lineOpacity(int level, float pixels_per_cell) {
+  return std::clamp((level * pixels_per_cell - kLineFadePixels) / kLineFadePixels, 0.f, 1.f);
+}
+
+}  // namespace
+
+void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
+               glm::vec3 background, std::vector<float>& out) {
+  const float cell = static_cast<float>(s.grid.cell_size);
+  const glm::vec3 thin(0.36f, 0.39f, 0.45f), wall(0.75f, 0.78f, 0.85f), ground(0.55f, 0.42f, 0.3f);
+  const glm::vec3 centre = 0.5f * extent;
+  auto cellLine = [&](int index, glm::vec3 at, glm::vec3 step, glm::vec3 a, glm::vec3 b,
+                      glm::vec3 colour) {
+    const float opacity =
+        lineOpacity(lineLevel(index), pixelsPerCell(view, width, height, at, step));
+    if (opacity > 0) addLine(out, a, b, glm::mix(background, colour, opacity));
+  };
+  for (int i = 0; i <= s.grid.cells[0]; ++i) {
+    const glm::vec3 a(i * cell, 0, 0), b(i * cell, extent.y, 0);
+    if (i == 0 || i == s.grid.cells[0])
+      addLine(out, a, b, wall);
+    else
+      cellLine(i, {i * cell, centre.y, 0}, {cell, 0, 0}, a, b, thin);
+  }
+  for (int j = 0; j <= s.grid.cells[1]; ++j) {
+    const glm::vec3 a(0, j * cell, 0), b(extent.x, j * cell, 0);
+    if (j == 0 || j == s.grid.cells[1])
+      addLine(out, a, b, j == 0 ? ground : wall);
+    else
+      cellLine(j, {centre.x, j * cell, 0}, {0, cell, 0}, a, b, thin);
+  }
+  if (s.grid.dimension != 3) return;
+  for (int k = 1; k < s.grid.cells[2]; ++k)
+    cellLine(k, {centre.x, 0, k * cell}, {0, 0, cell}, {0, 0, k * cell}, {extent.x, 0, k * cell},
+             ground);
+  addLine(out, {0, 0, extent.z}, {extent.x, 0, extent.z}, ground);
+  addLine(out, {0, 0, 0}, {0, 0, extent.z}, ground);
+  addLine(out, {extent.x, 0, 0}, {extent.x, 0, extent.z}, ground);
+}
+
+void densityCells(const Snapshot& s, glm::vec3 extent, glm::vec3 background,
+                  std::vector<float>& out) {
+  const auto& d = s.grid.node_density;
+  const int nx = s.grid.cells[0] + 1, ny = s.grid.cells[1] + 1;
+  if (s.grid.dimension != 2 || static_cast<int>(d.size()) != nx * ny) return;
+  float reference = static_cast<float>(s.grid.critical_density);
+  if (!(reference > 0)) reference = *std::max_element(d.begin(), d.end());
+  if (!(reference > 0)) return;
+  const float h = static_cast<float>(s.grid.cell_size), z = -0.002f;  // just behind the lines
+  const glm::vec3 loose(0.25f, 0.45f, 0.75f), critical(0.95f, 0.62f, 0.15f);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const float ratio = d[static_cast<size_t>(j) * nx + i] / reference;
+      if (ratio <= 0) continue;
+      const glm::vec3 colour =
+          ratio >= 1 ? critical : glm::mix(background, loose, std::min(ratio, 1.f));
+      const float x0 = std::max(0.f, (i - 0.5f) * h), x1 = std::min(extent.x, (i + 0.5f) * h);
+      const float y0 = std::max(0.f, (j - 0.5f) * h), y1 = std::min(extent.y, (j + 0.5f) * h);
+      for (const glm::vec2& p : {glm::vec2(x0, y0), glm::vec2(x1, y0), glm::vec2(x1, y1),
+                                 glm::vec2(x0, y0), glm::vec2(x1, y1), glm::vec2(x0, y1)})
+        out.insert(out.end(), {p.x, p.y, z, colour.r, colour.g, colour.b});
+    }
+}
+
+}  // namespace snowsim

@@ -1,5 +1,4 @@
 // snowsim render DIR: renders saved PLY frames again, e.g. with another colour or size.
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -33,25 +32,21 @@ void readRunSummary(const std::filesystem::path& dir, double& fps, std::string& 
 }
 
 void renderFrames(const RenderCommandOptions& options) {
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(options.frames))
-    if (entry.path().extension() == ".ply") files.push_back(entry.path());
-  if (files.empty()) throw InputError(options.frames + ": no .ply frames in this directory");
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files = plyFramesIn(options.frames);
   double fps = 30;
   std::string name = "frames";
   readRunSummary(options.frames, fps, name);
   // Every setting is checked before anything is written.
   const RenderSettings settings = options.render.settings(RenderSettings{});
-  if (settings.color_by == ColorBy::Plastic && readPly(files.front().string()).plastic_j.empty())
-    throw InputError("--color-by plastic: " + files.front().string() +
+  if (settings.color_by == ColorBy::Plastic && readPly(files.front()).plastic_j.empty())
+    throw InputError("--color-by plastic: " + files.front() +
                      " has no plastic compression (J_P); only MPM runs write it");
   const VideoSettings video = options.render.videoSettings(fps);
   const std::string out = options.out.empty() ? options.frames : options.out;
   prepareOutputDirectory(out);
   RenderSink sink(settings, options.render.png ? out : "",
                   options.render.mp4 ? out + "/" + name + ".mp4" : "", video);
-  for (const auto& file : files) sink.write(readPly(file.string()));
+  for (const auto& file : files) sink.write(readPly(file));
   sink.finish();
 }
 

@@ -11,5 +11,6 @@ void addRenderCommand(CLI::App& app);
 void addFigureCommand(CLI::App& app);
 void addDiffCommand(CLI::App& app);
 void addStudyCommand(CLI::App& app);
+void addClumpsCommand(CLI::App& app);
 
 }  // namespace snowsim

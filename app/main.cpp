@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   snowsim::addFigureCommand(app);
   snowsim::addDiffCommand(app);
   snowsim::addStudyCommand(app);
+  snowsim::addClumpsCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

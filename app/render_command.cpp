@@ -55,11 +55,11 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
 
 // The snow's extent over all frames and the extremes of the colouring quantity: density and
 // speed from 0 to the largest, J_P from the smallest to the largest.
-void scanFrames(const std::vector<std::filesystem::path>& files, ColorBy by, Bounds& bounds,
+void scanFrames(const std::vector<std::string>& files, ColorBy by, Bounds& bounds,
                 ColourRange& range) {
   range = {by == ColorBy::Plastic ? 1e30 : 0, -1e30};
   for (const auto& file : files) {
-    const Snapshot s = readPly(file.string());
+    const Snapshot s = readPly(file);
     bounds.include(particleBounds(s));
     for (int i = 0; i < s.size(); ++i) {
       const double value = by == ColorBy::Density ? (s.density.empty() ? 0 : s.density[i])
@@ -74,16 +74,12 @@ void scanFrames(const std::vector<std::filesystem::path>& files, ColorBy by, Bou
 }
 
 void renderFrames(const RenderCommandOptions& options) {
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(options.frames))
-    if (entry.path().extension() == ".ply") files.push_back(entry.path());
-  if (files.empty()) throw InputError(options.frames + ": no .ply frames in this directory");
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files = plyFramesIn(options.frames);
   const RunSummary run = readRunSummary(options.frames);
   // Every setting is checked before anything is written.
   RenderSettings settings = options.render.settings(RenderSettings{});
-  if (settings.color_by == ColorBy::Plastic && readPly(files.front().string()).plastic_j.empty())
-    throw InputError("--color-by plastic: " + files.front().string() +
+  if (settings.color_by == ColorBy::Plastic && readPly(files.front()).plastic_j.empty())
+    throw InputError("--color-by plastic: " + files.front() +
                      " has no plastic compression (J_P); only MPM runs write it");
   // The run's camera unless the command line places or frames one; a framing camera and the
   // colour range then come from every frame, so that all are drawn alike.
@@ -109,7 +105,7 @@ void renderFrames(const RenderCommandOptions& options) {
   RenderSink sink(settings, options.render.png ? out : "",
                   options.render.mp4 ? out + "/" + run.name + ".mp4" : "", video);
   for (const auto& file : files) {
-    Snapshot frame = readPly(file.string());
+    Snapshot frame = readPly(file);
     for (const SnapshotCollider& c : run.colliders)
       frame.colliders.push_back(c.movedBy(frame.time));
     sink.write(frame);

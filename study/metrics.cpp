@@ -3,7 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <numeric>
 #include <stdexcept>
+#include <unordered_map>
+#include <utility>
 
 namespace snowsim {
 
@@ -262,6 +266,107 @@ bool anyOutside(const Snapshot& s, const Point3& extent, double slack) {
     for (int k = 0; k < dims; ++k)
       if (p[k] < -slack || p[k] > extent[k] + slack) return true;
   return false;
+}
+
+namespace {
+
+// Disjoint sets of particle indices, with path halving and union by size.
+class DisjointSets {
+ public:
+  explicit DisjointSets(int n) : parent_(n), size_(n, 1) {
+    std::iota(parent_.begin(), parent_.end(), 0);
+  }
+  int root(int i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  void join(int a, int b) {
+    a = root(a), b = root(b);
+    if (a == b) return;
+    if (size_[a] < size_[b]) std::swap(a, b);
+    parent_[b] = a;
+    size_[a] += size_[b];
+  }
+
+ private:
+  std::vector<int> parent_, size_;
+};
+
+}  // namespace
+
+ClumpStats findClumps(const Snapshot& s, double link_distance, int min_size) {
+  if (!(link_distance > 0)) throw std::invalid_argument("findClumps: link_distance must be > 0");
+  if (min_size < 1) throw std::invalid_argument("findClumps: min_size must be >= 1");
+  const int n = s.size();
+  ClumpStats stats;
+  stats.particles = n;
+  if (n == 0) return stats;
+  // Cells of side link_distance: linked particles lie in the same or a neighbouring cell.
+  Point3 low{s.position[0][0], s.position[0][1], s.position[0][2]};
+  for (const auto& p : s.position)
+    for (int k = 0; k < 3; ++k) low[k] = std::min<double>(low[k], p[k]);
+  constexpr int64_t kAxisCells = int64_t(1) << 20;  // a key packs three axes of 21 bits
+  auto cellOf = [&](const std::array<float, 3>& p) {
+    std::array<int64_t, 3> c;
+    for (int k = 0; k < 3; ++k) {
+      const double x = std::floor((p[k] - low[k]) / link_distance);
+      if (!(x < kAxisCells))
+        throw std::invalid_argument("findClumps: positions span too many link distances");
+      c[k] = static_cast<int64_t>(x) + 1;  // + 1: a neighbour of cell 0 has a key too
+    }
+    return c;
+  };
+  auto key = [](int64_t x, int64_t y, int64_t z) { return uint64_t((x << 42) | (y << 21) | z); };
+  // Each cell's particles as a linked list: first particle per cell, next particle per particle.
+  std::unordered_map<uint64_t, int> first_in_cell;
+  first_in_cell.reserve(n);
+  std::vector<int> next(n, -1);
+  std::vector<std::array<int64_t, 3>> cell(n);
+  for (int p = 0; p < n; ++p) {
+    cell[p] = cellOf(s.position[p]);
+    auto [it, inserted] = first_in_cell.try_emplace(key(cell[p][0], cell[p][1], cell[p][2]), p);
+    if (!inserted) next[p] = std::exchange(it->second, p);
+  }
+  DisjointSets sets(n);
+  const double link2 = link_distance * link_distance;
+  for (int p = 0; p < n; ++p) {
+    const auto& x = s.position[p];
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto found =
+              first_in_cell.find(key(cell[p][0] + dx, cell[p][1] + dy, cell[p][2] + dz));
+          if (found == first_in_cell.end()) continue;
+          for (int q = found->second; q >= 0; q = next[q]) {
+            if (q >= p) continue;  // each pair once
+            const auto& y = s.position[q];
+            double d2 = 0;
+            for (int k = 0; k < 3; ++k) d2 += double(x[k] - y[k]) * double(x[k] - y[k]);
+            if (d2 <= link2) sets.join(p, q);
+          }
+        }
+  }
+  // Clumps numbered in the order of their first particle, so the labels do not depend on the hash.
+  stats.clump_of.assign(n, -1);
+  std::vector<int> label_of_root(n, -1);
+  for (int p = 0; p < n; ++p) {
+    int& label = label_of_root[sets.root(p)];
+    if (label < 0) {
+      label = stats.clumps++;
+      stats.clump_sizes.push_back(0);
+    }
+    stats.clump_of[p] = label;
+    ++stats.clump_sizes[label];
+  }
+  int clumped = 0, single = 0;
+  for (int size : stats.clump_sizes) {
+    stats.largest = std::max(stats.largest, size);
+    if (size >= min_size) clumped += size, ++stats.chunks;
+    if (size == 1) ++single;
+  }
+  stats.clumped_share = double(clumped) / n;
+  stats.single_share = double(single) / n;
+  return stats;
 }
 
 }  // namespace snowsim

@@ -89,6 +89,28 @@ double pileHeight(const Snapshot& s);
 // The report's Fig. 6 claim: final pile height with critical density x2 > x4 > x8.
 bool pileHeightsOrdered(const Snapshot& x2, const Snapshot& x4, const Snapshot& x8);
 
+// --- (d) how snow breaks up: clumps against scattered particles ----------------------------
+
+// Particles whose distance is at most link_distance belong to the same clump (connected
+// components of that neighbour graph). With link_distance about 1.5 times the lattice spacing
+// the particles were generated at, intact and compacted snow is one clump, and snow torn apart
+// into single particles or pairs leaves it.
+struct ClumpStats {
+  int particles = 0;
+  int clumps = 0;                // connected components, single particles included
+  int largest = 0;               // particles in the largest clump
+  int chunks = 0;                // clumps of at least min_size particles, the largest included
+  double clumped_share = 0;      // share of the particles in clumps of at least min_size
+  double single_share = 0;       // share of the particles with no neighbour within the link
+  std::vector<int> clump_of;     // clump index of each particle (0 .. clumps - 1)
+  std::vector<int> clump_sizes;  // particles per clump
+};
+
+// O(N): particles are hashed into cells of side link_distance, and each is linked to the
+// particles of its own and the neighbouring cells by a union-find. Throws std::invalid_argument
+// for link_distance <= 0 or min_size < 1.
+ClumpStats findClumps(const Snapshot& s, double link_distance, int min_size);
+
 // Any particle non-finite or outside [0, extent] (by more than `slack` m): escaped the domain.
 bool anyNonFinite(const Snapshot& s);
 bool anyOutside(const Snapshot& s, const Point3& extent, double slack);

@@ -1,7 +1,9 @@
 #include "sim/io/ply.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -134,6 +136,15 @@ Snapshot readPly(const std::string& path) {
   }
   s.grid.node_density = std::move(node_values);
   return s;
+}
+
+std::vector<std::string> plyFramesIn(const std::string& directory) {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(directory))
+    if (entry.path().extension() == ".ply") files.push_back(entry.path().string());
+  if (files.empty()) throw InputError(directory + ": no .ply frames in this directory");
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 }  // namespace snowsim

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "sim/core/snapshot.h"
 
@@ -14,5 +15,9 @@ void writePly(const std::string& path, const Snapshot& snapshot);
 
 // Reads a file written by writePly. Throws InputError naming the file and what is wrong.
 Snapshot readPly(const std::string& path);
+
+// The .ply files of a directory (a run's frame_NNNNN.ply), sorted by name. Throws InputError when
+// there are none.
+std::vector<std::string> plyFramesIn(const std::string& directory);
 
 }  // namespace snowsim

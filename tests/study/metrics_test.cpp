@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "sim/simulation.h"
 #include "study/metrics.h"
@@ -123,6 +124,97 @@ TEST(Metrics, CoarserRunHasLargerError) {
   EXPECT_LT(densityFieldError(fine, reference, kGrid), densityFieldError(coarse, reference, kGrid));
   // Before it lands the ball falls freely, within a fraction of a cell.
   EXPECT_LT(freeFallError(fine, {0, -9.81, 0}, 0.08), 0.002);
+}
+
+// --- clumps -------------------------------------------------------------------------------------
+
+Snapshot lattice(int nx, int ny, int nz, double spacing, std::array<double, 3> origin) {
+  Snapshot s;
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int k = 0; k < nz; ++k)
+        s.position.push_back({float(origin[0] + i * spacing), float(origin[1] + j * spacing),
+                              float(origin[2] + k * spacing)});
+  return s;
+}
+
+void append(Snapshot& to, const Snapshot& from) {
+  to.position.insert(to.position.end(), from.position.begin(), from.position.end());
+}
+
+TEST(Clumps, TwoBlocksAndScatteredParticles) {
+  const double spacing = 0.005;
+  Snapshot s = lattice(4, 4, 4, spacing, {0, 0, 0});        // 64 particles
+  append(s, lattice(3, 3, 3, spacing, {0.1, 0, 0}));        // 27, far from the first block
+  append(s, lattice(1, 1, 1, spacing, {0.05, 0.05, 0}));    // a single particle
+  append(s, lattice(2, 1, 1, spacing, {0.05, 0.0, 0.05}));  // a pair
+  const ClumpStats c = findClumps(s, 1.5 * spacing, 10);
+  EXPECT_EQ(c.particles, 94);
+  EXPECT_EQ(c.clumps, 4);
+  EXPECT_EQ(c.largest, 64);
+  EXPECT_EQ(c.chunks, 2);
+  EXPECT_DOUBLE_EQ(c.clumped_share, 91.0 / 94);
+  EXPECT_DOUBLE_EQ(c.single_share, 1.0 / 94);
+  EXPECT_EQ(c.clump_of[0], 0);
+  EXPECT_EQ(c.clump_of[64], 1);
+  EXPECT_EQ(c.clump_of[91], 2);
+  EXPECT_EQ(c.clump_of[92], c.clump_of[93]);
+}
+
+TEST(Clumps, LinkDistanceDecidesWhatIsConnected) {
+  const double spacing = 0.01;
+  const Snapshot s = lattice(5, 1, 1, spacing, {0.2, 0.3, 0.4});  // a row
+  EXPECT_EQ(findClumps(s, 1.01 * spacing, 1).clumps, 1);
+  EXPECT_EQ(findClumps(s, 0.99 * spacing, 1).clumps, 5);
+  EXPECT_DOUBLE_EQ(findClumps(s, 0.99 * spacing, 2).clumped_share, 0);
+  EXPECT_DOUBLE_EQ(findClumps(s, 0.99 * spacing, 2).single_share, 1);
+  // A chain links end to end across many cells of the hash.
+  EXPECT_EQ(findClumps(lattice(200, 1, 1, spacing, {0, 0, 0}), 1.5 * spacing, 1).largest, 200);
+}
+
+// The cell hash finds every pair within the link: the same clumps as comparing all pairs.
+TEST(Clumps, MatchesAllPairsOnRandomPoints) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> coordinate(0, 0.1f);
+  Snapshot s;
+  for (int i = 0; i < 600; ++i)
+    s.position.push_back({coordinate(random), coordinate(random), coordinate(random)});
+  const double link = 0.008;
+  const ClumpStats c = findClumps(s, link, 3);
+  // Flood fill over all pairs.
+  std::vector<int> label(s.size(), -1);
+  int clumps = 0;
+  for (int seed = 0; seed < s.size(); ++seed) {
+    if (label[seed] >= 0) continue;
+    std::vector<int> stack{seed};
+    label[seed] = clumps;
+    while (!stack.empty()) {
+      const int p = stack.back();
+      stack.pop_back();
+      for (int q = 0; q < s.size(); ++q) {
+        double d2 = 0;
+        for (int k = 0; k < 3; ++k)
+          d2 += double(s.position[p][k] - s.position[q][k]) *
+                double(s.position[p][k] - s.position[q][k]);
+        if (label[q] < 0 && d2 <= link * link) label[q] = clumps, stack.push_back(q);
+      }
+    }
+    ++clumps;
+  }
+  EXPECT_EQ(c.clumps, clumps);
+  EXPECT_GT(clumps, 10);  // the density is chosen so that there are many clumps and singles
+  EXPECT_LT(clumps, 500);
+  for (int p = 0; p < s.size(); ++p) EXPECT_EQ(c.clump_of[p], label[p]) << p;
+}
+
+TEST(Clumps, RejectsBadArguments) {
+  const Snapshot s = lattice(2, 2, 2, 0.01, {0, 0, 0});
+  EXPECT_THROW(findClumps(s, 0, 1), std::invalid_argument);
+  EXPECT_THROW(findClumps(s, 0.01, 0), std::invalid_argument);
+  Snapshot bad = s;
+  bad.position[3][1] = std::nanf("");
+  EXPECT_THROW(findClumps(bad, 0.015, 1), std::invalid_argument);
+  EXPECT_EQ(findClumps(Snapshot{}, 0.01, 1).clumps, 0);
 }
 
 }  // namespace

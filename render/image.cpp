@@ -4,6 +4,14 @@
 
 #include <csetjmp>
 
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+// PNG only (the reader's one format), and no image larger than the largest frame (8192 pixels a
+// side) with room to spare: a forged header cannot make stb allocate gigabytes.
+#define STBI_ONLY_PNG
+#define STBI_MAX_DIMENSIONS 16384
 #define STB_IMAGE_IMPLEMENTATION
 #include <stb/stb_image.h>
 
@@ -59,10 +67,23 @@ void writePng(const std::string& path, const Image& image) {
 }
 
 Image readPng(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the image (cannot open the file)");
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  return decodePng(bytes.str(), path);
+}
+
+Image decodePng(const std::string& bytes, const std::string& path) {
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
+    throw InputError(path + ": cannot read the image (larger than 2 GiB)");
   int width = 0, height = 0, channels = 0;
-  unsigned char* data = stbi_load(path.c_str(), &width, &height, &channels, 4);
+  unsigned char* data =
+      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
+                            static_cast<int>(bytes.size()), &width, &height, &channels, 4);
   if (!data) throw InputError(path + ": cannot read the image (" + stbi_failure_reason() + ")");
-  Image image{width, height, std::vector<std::uint8_t>(data, data + width * height * 4)};
+  Image image{width, height,
+              std::vector<std::uint8_t>(data, data + static_cast<size_t>(width) * height * 4)};
   stbi_image_free(data);
   return image;
 }

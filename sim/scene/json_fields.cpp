@@ -27,7 +27,10 @@ Json readJsonFile(const std::string& path) {
   if (!in) throw InputError(path + ": cannot open the scene file");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  return parseJsonText(buffer.str(), path);
+}
+
+Json parseJsonText(const std::string& text, const std::string& path) {
   try {
     return Json::parse(text);
   } catch (const Json::parse_error& e) {

@@ -1,4 +1,5 @@
 // snowsim run SCENE: simulates a scene and writes its frames.
+#include <omp.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -14,11 +15,14 @@
 #include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
+#include "app/run_directory.h"
 #include "render/scene_render.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
+#include "sim/scene/json_fields.h"
 #include "sim/simulation.h"
+#include "version.h"
 
 namespace snowsim {
 
@@ -31,6 +35,7 @@ struct RunOptions {
   std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
   int threads = 0;      // the solver's threads; 0: the OpenMP default
   bool ply = true;
+  bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
 };
 
@@ -61,7 +66,8 @@ void run(const RunOptions& options) {
                      " runs the report's method, which has no plastic compression; allowed: "
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
-  prepareOutputDirectory(options.out);
+  const std::string video_name = scene.name + ".mp4";
+  prepareRunDirectory(options.out, video_name, options.overwrite);
   auto simulation = makeSimulation(scene, options.threads);
 
   FrameSinks sinks;
@@ -69,7 +75,7 @@ void run(const RunOptions& options) {
   if (options.render.png || options.render.mp4)
     sinks.push_back(std::make_unique<RenderSink>(
         render, options.render.png ? options.out : "",
-        options.render.mp4 ? options.out + "/" + scene.name + ".mp4" : "", video));
+        options.render.mp4 ? options.out + "/" + video_name : "", video));
 
   catchInterrupts();
   const auto start = std::chrono::steady_clock::now();
@@ -119,6 +125,13 @@ void run(const RunOptions& options) {
                    scene.file.c_str(), solves.unconverged, solves.solves,
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
+  if (options.render.mp4) summary["video"] = video_name;
+  // What reproduces the run: the scene as run, how it was asked for, by which build.
+  summary["resolved_scene"] = sceneToJson(scene);
+  summary["overrides"] = options.overrides;
+  summary["quality"] = options.quality;
+  summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
+  summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -135,8 +148,13 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("scene", options->scene, "Scene file (JSON), e.g. scenes/snowball_drop.json")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("-o,--out", options->out, "Output directory (created if missing)")
+  cmd->add_option("-o,--out", options->out,
+                  "Output directory (created if missing); one holding an earlier run's files is "
+                  "refused unless --overwrite")
       ->capture_default_str();
+  cmd->add_flag("--overwrite", options->overwrite,
+                "Remove an earlier run's frames, run.json and video from the output directory "
+                "first (no other file)");
   cmd->add_option("--set", options->overrides,
                   "Override a scene field by its path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] or bodies[0].velocity=[1,0] (repeatable)");
@@ -151,7 +169,9 @@ void addRunCommand(CLI::App& app) {
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
       "and run.json (steps, simulated time, wall time, particle count, dimension, cell size; for a "
-      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged).\n"
+      "semi-implicit run, its linear solves: count, mean and most iterations, unconverged; to "
+      "reproduce the run: the scene after --set and --quality, the overrides, the quality, the "
+      "snowsim version and commit, the threads).\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
       "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
   cmd->callback([options] { run(*options); });

@@ -23,8 +23,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::vector<std::string> overrides(parts.begin() + 1, parts.end());
   snowsim::Scene scene;
   try {
-    scene = snowsim::loadScene(snowsim::parseJsonText(parts[0], "fuzz.json"), "fuzz.json",
-                               overrides);
+    scene =
+        snowsim::loadScene(snowsim::parseJsonText(parts[0], "fuzz.json"), "fuzz.json", overrides);
   } catch (const snowsim::InputError&) {
     return 0;
   }

@@ -20,8 +20,8 @@ namespace fs = std::filesystem;
 
 std::vector<fs::path> regressions(const std::string& target) {
   std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(std::string(SNOWSIM_SOURCE_DIR) +
-                                              "/fuzz/regressions/" + target))
+  for (const auto& e :
+       fs::directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/fuzz/regressions/" + target))
     files.push_back(e.path());
   return files;
 }

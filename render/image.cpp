@@ -77,12 +77,15 @@ Image readPng(const std::string& path) {
 namespace {
 
 // stb_image trusts a chunk's length and grows its buffer to it before reading: a 200-byte file
-// whose IDAT claims 1.2 GB made it allocate 2 GB (found by fuzz/png_fuzzer). Every chunk must fit
-// in the bytes that follow it.
-void checkPngChunks(const std::string& bytes, const std::string& path) {
+// whose IDAT claims 1.2 GB made it allocate 2 GB. And a first IDAT of no bytes makes it memcpy
+// from a null buffer (undefined behaviour). Both found by fuzz/png_fuzzer. Every chunk must fit
+// in the bytes that follow it; empty IDAT chunks (valid, and meaningless) are dropped from
+// `stripped`, which stays empty when there are none.
+void checkPngChunks(const std::string& bytes, const std::string& path, std::string& stripped) {
   static const std::string signature = "\x89PNG\r\n\x1a\n";
   if (bytes.compare(0, signature.size(), signature) != 0)
     throw InputError(path + ": cannot read the image (not a PNG file)");
+  size_t kept_until = 0;  // bytes before this offset are copied to `stripped` when it is used
   for (size_t at = signature.size(); at < bytes.size();) {
     if (bytes.size() - at < 12)
       throw InputError(path + ": cannot read the image (truncated chunk at byte " +
@@ -94,9 +97,14 @@ void checkPngChunks(const std::string& bytes, const std::string& path) {
       throw InputError(path + ": cannot read the image (chunk " + type + " at byte " +
                        std::to_string(at) + " claims " + std::to_string(length) +
                        " bytes; the file has " + std::to_string(bytes.size() - at - 12) + ")");
-    if (type == "IEND") return;
+    if (type == "IDAT" && length == 0) {
+      stripped.append(bytes, kept_until, at - kept_until);
+      kept_until = at + 12;
+    }
+    if (type == "IEND") break;
     at += 12 + length;
   }
+  if (kept_until > 0) stripped.append(bytes, kept_until, std::string::npos);
 }
 
 }  // namespace
@@ -104,11 +112,13 @@ void checkPngChunks(const std::string& bytes, const std::string& path) {
 Image decodePng(const std::string& bytes, const std::string& path) {
   if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
     throw InputError(path + ": cannot read the image (larger than 2 GiB)");
-  checkPngChunks(bytes, path);
+  std::string stripped;
+  checkPngChunks(bytes, path, stripped);
+  const std::string& png = stripped.empty() ? bytes : stripped;
   int width = 0, height = 0, channels = 0;
   unsigned char* data =
-      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
-                            static_cast<int>(bytes.size()), &width, &height, &channels, 4);
+      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(png.data()),
+                            static_cast<int>(png.size()), &width, &height, &channels, 4);
   if (!data) throw InputError(path + ": cannot read the image (" + stbi_failure_reason() + ")");
   Image image{width, height,
               std::vector<std::uint8_t>(data, data + static_cast<size_t>(width) * height * 4)};

@@ -1,5 +1,6 @@
 #include "app/run_directory.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>

@@ -1,4 +1,5 @@
 // snowsim run SCENE: simulates a scene and writes its frames.
+#include <omp.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -16,6 +17,7 @@
 #include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
+#include "app/run_directory.h"
 #include "app/scale.h"
 #include "app/step_watch.h"
 #include "render/colour.h"
@@ -24,7 +26,9 @@
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
+#include "sim/scene/json_fields.h"
 #include "sim/simulation.h"
+#include "version.h"
 
 namespace snowsim {
 
@@ -39,6 +43,7 @@ struct RunOptions {
   bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   bool ply = true;
+  bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
 };
 
@@ -108,7 +113,8 @@ void run(const RunOptions& options) {
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
   if (options.estimate_only) return estimateOnly(scene, options.threads);
-  prepareOutputDirectory(options.out);
+  const std::string video_name = scene.name + ".mp4";
+  prepareRunDirectory(options.out, video_name, options.overwrite);
   const auto start = std::chrono::steady_clock::now();
   StageClock clock;  // this thread's stages; the solver times its own
   std::unique_ptr<Simulation> simulation;
@@ -121,7 +127,7 @@ void run(const RunOptions& options) {
     if (options.render.png || options.render.mp4)
       sinks.push_back(std::make_unique<RenderSink>(
           render, options.render.png ? options.out : "",
-          options.render.mp4 ? options.out + "/" + scene.name + ".mp4" : "", video, &clock));
+          options.render.mp4 ? options.out + "/" + video_name : "", video, &clock));
   }
 
   catchInterrupts();
@@ -186,6 +192,13 @@ void run(const RunOptions& options) {
   }
   if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
   if (options.render.png || options.render.mp4) recordRendering(summary, render, scene);
+  if (options.render.mp4) summary["video"] = video_name;
+  // What reproduces the run: the scene as run, how it was asked for, by which build.
+  summary["resolved_scene"] = sceneToJson(scene);
+  summary["overrides"] = options.overrides;
+  summary["quality"] = options.quality;
+  summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
+  summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
@@ -202,8 +215,13 @@ void addRunCommand(CLI::App& app) {
   cmd->add_option("scene", options->scene, "Scene file (JSON), e.g. scenes/snowball_drop.json")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("-o,--out", options->out, "Output directory (created if missing)")
+  cmd->add_option("-o,--out", options->out,
+                  "Output directory (created if missing); one holding an earlier run's files is "
+                  "refused unless --overwrite")
       ->capture_default_str();
+  cmd->add_flag("--overwrite", options->overwrite,
+                "Remove an earlier run's frames, run.json and video from the output directory "
+                "first (no other file)");
   cmd->add_option("--set", options->overrides,
                   "Override a scene field by its path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] or bodies[0].velocity=[1,0] (repeatable)");
@@ -227,7 +245,9 @@ void addRunCommand(CLI::App& app) {
       "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "
       "stage, particle count, dimension, cell size; a collapse of the time step and its cause; "
       "for a semi-implicit run, its linear solves: count, mean and most iterations, "
-      "unconverged; the 3D camera and the colour range the frames were drawn with).\n"
+      "unconverged; the 3D camera and the colour range the frames were drawn with; to reproduce "
+      "the run: the scene after --set, --quality and --scale, the overrides, the quality, the "
+      "snowsim version and commit, the threads).\n"
       "Before the run starts it prints the particles, the grid and the particle-steps of the "
       "duration, and after the first steps an estimate of their time.\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "

@@ -20,5 +20,7 @@ void writePng(const std::string& path, const Image& image);
 
 // Reads a PNG as RGBA; throws InputError naming the path.
 Image readPng(const std::string& path);
+// The same from the file's bytes, `path` naming it in messages.
+Image decodePng(const std::string& bytes, const std::string& path);
 
 }  // namespace snowsim

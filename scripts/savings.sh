@@ -18,7 +18,7 @@ median_wall() {
   scene=$1
   shift
   for r in 1 2 3; do
-    "$snowsim" run "$root/scenes/$scene.json" -o "$work/run" --no-ply --no-png --no-mp4 "$@" \
+    "$snowsim" run "$root/scenes/$scene.json" -o "$work/run" --overwrite --no-ply --no-png --no-mp4 "$@" \
       >/dev/null
     sed -n 's/.*"wall_time": \([0-9.e-]*\).*/\1/p' "$work/run/run.json"
   done | sort -g | sed -n 2p | tr '\n' ' '

@@ -17,6 +17,8 @@ packages=(
   libgtest-dev libgmock-dev ffmpeg
   # charts for the speed/accuracy study
   gnuplot-nox
+  # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
+  clang libclang-rt-14-dev llvm
 )
 
 missing=()

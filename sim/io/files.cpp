@@ -1,5 +1,8 @@
 #include "sim/io/files.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -11,15 +14,21 @@ namespace snowsim {
 
 void writeFileAtomically(const std::string& path, const std::string& bytes) {
   const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      std::filesystem::remove(temporary);
-      throw InputError(path + ": writing failed (disk full?)");
-    }
+  // POSIX calls rather than a stream: a failed write's errno (ENOSPC, EIO, ...) is the message.
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
+  const char* data = bytes.data();
+  size_t left = bytes.size();
+  int error = 0;
+  while (left > 0 && error == 0) {
+    const ssize_t written = ::write(fd, data, left);
+    if (written < 0 && errno != EINTR) error = errno;
+    if (written > 0) data += written, left -= static_cast<size_t>(written);
+  }
+  if (::close(fd) != 0 && error == 0) error = errno;
+  if (error != 0) {
+    std::filesystem::remove(temporary);
+    throw InputError(path + ": writing failed (" + std::strerror(error) + ")");
   }
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <istream>
 #include <sstream>
 #include <vector>
 
@@ -62,13 +63,17 @@ void writePly(const std::string& path, const Snapshot& s) {
 Snapshot readPly(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open the PLY file");
+  return readPly(in, path);
+}
+
+Snapshot readPly(std::istream& in, const std::string& path) {
   auto bad = [&](const std::string& why) {
     return InputError(path + ": not a snowsim PLY file: " + why);
   };
   Snapshot s;
   std::string line;
   if (!std::getline(in, line) || line != "ply") throw bad("missing the 'ply' magic line");
-  std::vector<std::string> properties;
+  std::vector<std::string> properties, node_properties;
   long vertices = -1, nodes = 0;
   std::string element;
   while (std::getline(in, line) && line != "end_header") {
@@ -98,8 +103,9 @@ Snapshot readPly(const std::string& path) {
       else if (key == "critical_density")
         words >> s.grid.critical_density;
     } else if (word == "element") {
-      long count = 0;
+      long count = -1;
       words >> element >> count;
+      if (count < 0) throw bad("element " + element + " has no count");
       if (element == "vertex")
         vertices = count;
       else if (element == "node")
@@ -110,15 +116,33 @@ Snapshot readPly(const std::string& path) {
       std::string type, name;
       words >> type >> name;
       if (type != "float") throw bad("property " + name + " is not a float");
-      if (element == "vertex") properties.push_back(name);
+      (element == "vertex" ? properties : node_properties).push_back(name);
     }
   }
   if (line != "end_header" || vertices < 0) throw bad("incomplete header");
+  // What the renderer relies on: the grid the snowsim comments describe.
+  const GridInfo& g = s.grid;
+  if (g.dimension != 2 && g.dimension != 3) throw bad("dimension is not 2 or 3");
+  for (int a = 0; a < 3; ++a)
+    if (g.cells[a] < 1 || g.cells[a] > 4096) throw bad("cells are not whole numbers 1 to 4096");
+  if (!(g.cell_size > 0 && g.cell_size <= 1e3)) throw bad("cell_size is not in (0, 1000] m");
+  if (nodes != 0 && (g.dimension != 2 || nodes != long(g.cells[0] + 1) * (g.cells[1] + 1) ||
+                     node_properties != std::vector<std::string>{"density"}))
+    throw bad("the node element does not hold a density for each node of the 2D grid");
   const std::vector<std::string> required{"x", "y", "z", "vx", "vy", "vz", "density"};
   if (properties.size() < 7 || !std::equal(required.begin(), required.end(), properties.begin()))
     throw bad("vertex properties are not x y z vx vy vz density");
   const bool has_j = properties.size() > 7 && properties[7] == "plastic_j";
   const size_t row = properties.size();
+  // The counts must fit the bytes that follow before anything is allocated for them.
+  const std::streampos body = in.tellg();
+  in.seekg(0, std::ios::end);
+  const auto bytes = static_cast<unsigned long>(in.tellg() - body);
+  in.seekg(body);
+  const unsigned long floats = bytes / sizeof(float);
+  if (static_cast<unsigned long>(nodes) > floats ||
+      static_cast<unsigned long>(vertices) > (floats - nodes) / row)
+    throw bad("the file is shorter than its header says");
   std::vector<float> values(vertices * row);
   std::vector<float> node_values(nodes);
   in.read(reinterpret_cast<char*>(values.data()), values.size() * sizeof(float));

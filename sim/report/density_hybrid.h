@@ -63,6 +63,10 @@ class DensityHybridSolver final : public Solver<D> {
   std::vector<Vec<D>> scratch_;     // new values of step 4 (read old, write new)
   int slab_axis_ = -1;              // the extruded axis of a 2D scene run as a 3D slab, else -1
   Real critical_density_ = 0;
+  // Of the last advection, before the walls stopped anyone: the largest speed and the largest
+  // fraction of the domain's width along an axis that a particle crossed in the step.
+  Real fastest_speed_ = 0;
+  Real widest_crossing_ = 0;
 };
 
 }  // namespace snowsim

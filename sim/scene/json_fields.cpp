@@ -27,7 +27,10 @@ Json readJsonFile(const std::string& path) {
   if (!in) throw InputError(path + ": cannot open the scene file");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  return parseJsonText(buffer.str(), path);
+}
+
+Json parseJsonText(const std::string& text, const std::string& path) {
   try {
     return Json::parse(text);
   } catch (const Json::parse_error& e) {
@@ -44,6 +47,13 @@ Json readJsonFile(const std::string& path) {
     throw InputError(
         path + ":" + std::to_string(line) + ":" + std::to_string(column) +
         ": malformed JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  } catch (const Json::out_of_range& e) {
+    // A number beyond a double, e.g. 1e400 (found by fuzz/scene_fuzzer): no offset is given.
+    const std::string what = e.what();
+    const auto text_start = what.find("] ");
+    throw InputError(path + ": malformed JSON: " +
+                     (text_start == std::string::npos ? what : what.substr(text_start + 2)) +
+                     "; allowed: numbers within +-1.8e308");
   }
 }
 

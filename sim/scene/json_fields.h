@@ -23,10 +23,19 @@ struct Scene;
 
 // Reads a JSON file; a syntax error names the file, line and column.
 Json readJsonFile(const std::string& path);
+// The same for a file's text, `file` naming it in messages.
+Json parseJsonText(const std::string& text, const std::string& file);
 
 // Parses and validates a scene given as JSON (tests and benchmarks build theirs in code); throws
 // InputError naming the file and field. For scene files: loadScene (sim/scene/scene.h).
 Scene parseScene(const Json& root, const std::string& file);
+
+// The scene as a scene file: every field, defaults included; parseScene reads it back to the same
+// Scene. What a run used, after --set and --quality.
+Json sceneToJson(const Scene& scene);
+
+// loadScene (sim/scene/scene.h) of a scene file's JSON, `file` naming it in messages.
+Scene loadScene(Json root, const std::string& file, const std::vector<std::string>& overrides);
 
 // A bad field: what() names the file, the field and the problem; field is the dotted path
 // (bodies.0.radius), to find the --set assignment that wrote it.

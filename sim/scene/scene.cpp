@@ -394,7 +394,10 @@ Scene parseScene(const Json& root, const std::string& file) {
 }
 
 Scene loadScene(const std::string& path, const std::vector<std::string>& overrides) {
-  Json root = readJsonFile(path);
+  return loadScene(readJsonFile(path), path, overrides);
+}
+
+Scene loadScene(Json root, const std::string& path, const std::vector<std::string>& overrides) {
   for (const std::string& o : overrides) applyOverride(root, o, path);
   try {
     return parseScene(root, path);

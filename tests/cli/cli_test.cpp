@@ -82,7 +82,7 @@ TEST(Cli, RunCountsTheSemiImplicitSolves) {
   EXPECT_EQ(solves["unconverged"], 0);
   EXPECT_TRUE(onlyProgress(r.output)) << r.output;
 
-  r = runSnowsim(run + " --set mpm.max_iterations=2");
+  r = runSnowsim(run + " --overwrite --set mpm.max_iterations=2");
   ASSERT_EQ(r.code, 0) << r.output;
   solves = nlohmann::json::parse(std::ifstream(out / "run.json"))["implicit_solves"];
   EXPECT_GT(solves["unconverged"].get<int>(), 0);
@@ -142,7 +142,7 @@ TEST(Cli, SetTakesArrayIndicesInBrackets) {
   Result r = runSnowsim(run + "--set 'bodies[0].radius=0.02'");
   ASSERT_EQ(r.code, 0) << r.output;
   const int bigger = nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"];
-  r = runSnowsim(run + "--set bodies.0.radius=0.02");
+  r = runSnowsim(run + "--overwrite --set bodies.0.radius=0.02");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["particles"], bigger);
   EXPECT_GT(bigger, 25) << "the ball of radius 0.0095 m has 25 particles";

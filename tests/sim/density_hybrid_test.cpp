@@ -4,6 +4,7 @@
 
 #include <numeric>
 
+#include "sim/core/errors.h"
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
 
@@ -159,6 +160,32 @@ TEST(DensityHybrid, CriticalDensityReadings) {
   // The smoothed field of a small body is below the material density everywhere.
   EXPECT_LT(mean, 400.0);
   EXPECT_GT(mean, 100.0);
+}
+
+// A ball too fast for any step of the box would be stopped on the wall with finite values and
+// "finish"; the check stops it at the first step instead, saying how fast and what dt would do.
+TEST(DensityHybrid, ABallThatCrossesTheDomainInOneStepDiverges) {
+  for (double speed : {1e300, 200.0}) {
+    Scene scene = ballScene();
+    scene.bodies[0].velocity = {speed, 0, 0};
+    DensityHybridSolver<2> solver(scene, sampleBodies<2>(scene));
+    try {
+      solver.step(1e-3);
+      FAIL() << speed << " m/s was not stopped";
+    } catch (const SimulationError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("step 1 "), std::string::npos) << message;
+      EXPECT_NE(message.find("crossed the whole domain"), std::string::npos) << message;
+    }
+  }
+}
+
+// The report's dt = 0.01 tunnelling (Fig. 8) moves the ball 1.5 cells a step: not divergence.
+TEST(DensityHybrid, AFewCellsAStepIsNotDivergence) {
+  Scene scene = ballScene();
+  scene.bodies[0].velocity = {3.0, 0, 0};  // 3 cells per step of 0.01 s
+  DensityHybridSolver<2> solver(scene, sampleBodies<2>(scene));
+  EXPECT_NO_THROW(solver.step(1e-2));
 }
 
 }  // namespace

@@ -1,0 +1,98 @@
+#include "app/run_directory.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <regex>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/core/errors.h"
+#include "sim/io/files.h"
+
+namespace snowsim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kTemporary = ".tmp";  // sim/io/files.h: writeFileAtomically's suffix
+
+// The video an earlier run recorded in its run.json, or "" when there is none.
+std::string recordedVideo(const fs::path& dir) {
+  std::ifstream in(dir / "run.json");
+  if (!in) return "";
+  const auto summary = nlohmann::json::parse(in, nullptr, false);
+  if (!summary.is_object() || !summary.contains("video") || !summary["video"].is_string())
+    return "";
+  const std::string name = summary["video"];
+  // A bare file name only: a run.json edited to name ../something must not reach outside.
+  return fs::path(name).filename() == name ? name : "";
+}
+
+// "51 PNG frames, 51 PLY frames, run.json, ball.mp4": what the files are, counted.
+std::string describe(const std::vector<fs::path>& files) {
+  std::map<std::string, int> frames;
+  std::string others;
+  int temporaries = 0;
+  for (const fs::path& file : files) {
+    const std::string name = file.filename().string();
+    if (file.extension() == kTemporary)
+      ++temporaries;
+    else if (name.rfind("frame_", 0) == 0)
+      ++frames[file.extension() == ".png" ? "PNG" : "PLY"];
+    else
+      others += ", " + name;
+  }
+  std::string text;
+  for (const auto& [kind, count] : frames)
+    text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + kind + " frames";
+  text += others;
+  if (temporaries > 0) text += ", " + std::to_string(temporaries) + " unfinished temporary files";
+  return text.rfind(", ", 0) == 0 ? text.substr(2) : text;
+}
+
+}  // namespace
+
+std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& video) {
+  static const std::regex frame(R"(frame_[0-9]{5,}\.(ply|png))");
+  const std::string recorded = recordedVideo(dir);
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    if (!entry.is_regular_file() && !entry.is_symlink()) continue;
+    std::string name = entry.path().filename().string();
+    if (name.size() > kTemporary.size() &&
+        name.compare(name.size() - kTemporary.size(), kTemporary.size(), kTemporary) == 0)
+      name.resize(name.size() - kTemporary.size());
+    if (std::regex_match(name, frame) || name == "run.json" || name == video ||
+        (!recorded.empty() && name == recorded))
+      files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite) {
+  prepareOutputDirectory(dir);
+  std::vector<fs::path> files = earlierRunFiles(dir, video);
+  if (!overwrite) {
+    // Leftover temporaries are replaced as the run writes; only finished files are in the way.
+    std::erase_if(files, [](const fs::path& f) { return f.extension() == kTemporary; });
+    if (files.empty()) return;
+    throw InputError(dir + ": holds an earlier run (" + describe(files) +
+                     "); choose another --out, or pass --overwrite to remove these files (and "
+                     "only these) first");
+  }
+  if (files.empty()) return;
+  for (const fs::path& file : files) {
+    std::error_code ec;
+    fs::remove(file, ec);
+    if (ec) throw InputError(file.string() + ": cannot remove it (" + ec.message() + ")");
+  }
+  std::fprintf(stderr, "snowsim: --overwrite: removed %s of an earlier run from %s\n",
+               describe(files).c_str(), dir.c_str());
+}
+
+}  // namespace snowsim

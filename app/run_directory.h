@@ -1,0 +1,22 @@
+// What `snowsim run` writes into its output directory, recognised by name, so that a new run never
+// leaves an earlier run's frames beside its own and never removes a file it did not write.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace snowsim {
+
+// The files of an earlier run in dir: frame_NNNNN.ply and .png, run.json, the video run.json
+// names or `video` (the file this run's video would replace), and leftover temporaries
+// (NAME.tmp) of any of them. Sorted.
+std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& dir,
+                                                   const std::string& video);
+
+// Readies dir for a run: creates it and checks it is writable. When it holds an earlier run's
+// frames, run.json or video, throws InputError listing them unless `overwrite`; with it, removes
+// exactly those files (temporaries included) and says on stderr what it removed.
+void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite);
+
+}  // namespace snowsim

@@ -1,0 +1,138 @@
+// A parsed scene written back as a scene file: every field, defaults included, so that the file
+// parses to the same Scene (run.json records it to reproduce a run).
+#include "sim/scene/json_fields.h"
+#include "sim/scene/scene.h"
+
+namespace snowsim {
+
+namespace {
+
+// The first `dimension` entries: a scene's vectors have as many as its grid.cells.
+Json entries(const Vec3& v, int dimension) {
+  return Json(std::vector<double>(v.begin(), v.begin() + dimension));
+}
+
+const char* kernelName(KernelType k) {
+  return k == KernelType::Cubic ? "cubic" : "quadratic";
+}
+
+const char* colliderTypeName(ColliderType t) {
+  return t == ColliderType::Sticky ? "sticky" : t == ColliderType::Slip ? "slip" : "separating";
+}
+
+Json densityHybridJson(const DensityHybridParams& p) {
+  return {{"flip_alpha", p.flip_alpha},
+          {"critical_multiplier", p.critical_multiplier},
+          {"critical_reference", p.critical_reference == CriticalReference::RestDensity
+                                     ? "rest_density"
+                                     : "particle_mass_per_cell"},
+          {"walls", p.walls == WallRule::HoldGrid   ? "hold_grid"
+                    : p.walls == WallRule::SlipGrid ? "slip_grid"
+                                                    : "particles_only"},
+          {"flip_reference",
+           p.flip_reference == FlipReference::Rasterised ? "rasterised" : "equalised"},
+          {"kernel", kernelName(p.kernel)}};
+}
+
+Json mpmJson(const MpmParams& p) {
+  return {
+      {"transfer", p.transfer == MpmTransfer::PicFlip ? "pic_flip"
+                   : p.transfer == MpmTransfer::Apic  ? "apic"
+                                                      : "mls"},
+      {"flip_alpha", p.flip_alpha},
+      {"kernel", kernelName(p.kernel)},
+      {"integrator", p.integrator == MpmIntegrator::SemiImplicit ? "semi_implicit" : "explicit"},
+      {"beta", p.implicit_beta},
+      {"tolerance", p.implicit_tolerance},
+      {"max_iterations", p.implicit_max_iterations},
+      {"cfl", p.cfl},
+      {"adaptive_dt", p.adaptive_dt},
+      {"initial_volume", p.initial_volume == InitialVolume::Lattice ? "lattice" : "grid_density"},
+      {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}}};
+}
+
+Json colliderJson(const ColliderParams& c, int dimension) {
+  Json j = {{"position", entries(c.position, dimension)},
+            {"velocity", entries(c.velocity, dimension)},
+            {"type", colliderTypeName(c.type)},
+            {"friction", c.friction}};
+  if (c.shape == ColliderShape::HalfSpace) {
+    j["shape"] = "half_space";
+    j["normal"] = entries(c.normal, dimension);
+  } else if (c.shape == ColliderShape::Sphere) {
+    j["shape"] = "sphere";
+    j["radius"] = c.radius;
+  } else {
+    j["shape"] = "box";
+    j["size"] = entries(c.size, dimension);
+  }
+  return j;
+}
+
+Json bodyJson(const Body& b, int dimension) {
+  Json j = {{"name", b.name},
+            {"shape", b.shape == BodyShape::Ball  ? "ball"
+                      : b.shape == BodyShape::Box ? "box"
+                                                  : "half_ball"},
+            {"center", entries(b.center, dimension)},
+            {"velocity", entries(b.velocity, dimension)},
+            {"density", b.density}};
+  if (b.shape == BodyShape::Box)
+    j["size"] = entries(b.size, dimension);
+  else
+    j["radius"] = b.radius;
+  if (b.shape == BodyShape::HalfBall) j["cut_normal"] = entries(b.cut_normal, dimension);
+  // A body without its own count takes the scene's, as it did here.
+  if (b.own_particles_per_cell) j["particles_per_cell"] = b.particles_per_cell;
+  return j;
+}
+
+Json renderJson(const SceneRender& r) {
+  Json j = Json::object();
+  if (r.width) j["width"] = *r.width;
+  if (r.height) j["height"] = *r.height;
+  if (r.color_by) j["color_by"] = *r.color_by;
+  if (r.sphere_radius) j["sphere_radius"] = *r.sphere_radius;
+  if (r.grid) j["grid"] = *r.grid;
+  if (r.density_cells) j["density_cells"] = *r.density_cells;
+  if (r.camera) {
+    Json& c = j["camera"] = {{"eye", entries(r.camera->eye, 3)},
+                             {"target", entries(r.camera->target, 3)},
+                             {"up", entries(r.camera->up, 3)}};
+    if (r.camera->fov) c["fov"] = *r.camera->fov;
+  }
+  return j;
+}
+
+}  // namespace
+
+Json sceneToJson(const Scene& s) {
+  const int d = s.authored_dimension;
+  Json grid = {{"cells", std::vector<int>(s.cells.begin(), s.cells.begin() + d)},
+               {"cell_size", s.cell_size}};
+  if (d == 2) grid["depth_cells"] = s.cells[2];
+  Json j = {{"name", s.name},
+            {"description", s.description},
+            {"dimension", s.dimension},
+            {"grid", grid},
+            {"gravity", entries(s.gravity, d)},
+            {"solver", s.solver == SolverType::Mpm ? "mpm" : "density_hybrid"},
+            {"density_hybrid", densityHybridJson(s.density_hybrid)},
+            {"mpm", mpmJson(s.mpm)},
+            {"material",
+             {{"E0", s.material.E0},
+              {"nu", s.material.nu},
+              {"theta_c", s.material.theta_c},
+              {"theta_s", s.material.theta_s},
+              {"xi", s.material.xi}}},
+            {"colliders", Json::array()},
+            {"time", {{"dt", s.dt}, {"duration", s.duration}, {"fps", s.fps}}},
+            {"particles_per_cell", s.particles_per_cell},
+            {"bodies", Json::array()},
+            {"render", renderJson(s.render)}};
+  for (const ColliderParams& c : s.colliders) j["colliders"].push_back(colliderJson(c, d));
+  for (const Body& b : s.bodies) j["bodies"].push_back(bodyJson(b, d));
+  return j;
+}
+
+}  // namespace snowsim

@@ -1,0 +1,152 @@
+// What `snowsim run` does with its output directory: an earlier run's files are refused or, with
+// --overwrite, removed (and only they); run.json says how to reproduce the run; a write that fails
+// mid-run names the file and leaves every earlier frame whole.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "render/image.h"
+#include "sim/io/ply.h"
+#include "sim/scene/json_fields.h"
+#include "sim/scene/scene.h"
+#include "tests/cli/run_snowsim.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using snowsim_test::freshDir;
+using snowsim_test::Result;
+using snowsim_test::runSnowsim;
+
+std::string scene(const std::string& name) {
+  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
+}
+
+int countFrames(const fs::path& dir, const std::string& extension) {
+  int n = 0;
+  for (const auto& entry : fs::directory_iterator(dir))
+    n += entry.path().extension() == extension &&
+         entry.path().stem().string().rfind("frame_", 0) == 0;
+  return n;
+}
+
+// The case: a 0.2 s rerun into the directory of a longer run.
+TEST(RunDirectory, AnEarlierRunIsRefusedOrWithOverwriteReplacedLeavingOtherFiles) {
+  const fs::path out = freshDir("rerun");
+  const std::string run =
+      "run " + scene("snowball_drop") + " -o " + out.string() + " --width 64 --height 64 ";
+  ASSERT_EQ(runSnowsim(run + "--set time.duration=0.3").code, 0);
+  ASSERT_EQ(countFrames(out, ".png"), 16);
+  std::ofstream(out / "notes.txt") << "mine";
+  std::ofstream(out / "frame_notes.png") << "not a frame of snowsim's";
+
+  Result r = runSnowsim(run + "--set time.duration=0.1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find(out.string() + ": holds an earlier run (16 PLY frames, 16 PNG frames, "
+                                         "run.json, snowball_drop.mp4)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("--overwrite"), std::string::npos) << r.output;
+  EXPECT_EQ(countFrames(out, ".png"), 17) << "nothing is touched";
+
+  r = runSnowsim(run + "--set time.duration=0.1 --overwrite");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("--overwrite: removed 16 PLY frames, 16 PNG frames, run.json, "
+                          "snowball_drop.mp4 of an earlier run"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(countFrames(out, ".png"), 6 + 1);  // frames 0 to 5 and frame_notes.png
+  EXPECT_EQ(countFrames(out, ".ply"), 6);
+  EXPECT_TRUE(fs::exists(out / "notes.txt"));
+  EXPECT_TRUE(fs::exists(out / "frame_notes.png"));
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["frames"], 6);
+}
+
+// An empty directory, or one with only other files, takes a run without --overwrite.
+TEST(RunDirectory, OtherFilesDoNotStopARun) {
+  const fs::path out = freshDir("other_files");
+  fs::create_directories(out);
+  std::ofstream(out / "README") << "results go here";
+  const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                              " --set time.duration=0.02 --no-png --no-mp4");
+  EXPECT_EQ(r.code, 0) << r.output;
+}
+
+// run.json holds what reproduces the run: its resolved scene, run again with no --set or
+// --quality, gives the same frames.
+TEST(RunDirectory, RunJsonRecordsWhatReproducesTheRun) {
+  const fs::path out = freshDir("reproduce"), again = freshDir("reproduce_again");
+  const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                              " --no-png --no-mp4 --quality draft --threads 2 --set solver=mpm "
+                              "--set time.duration=0.04 --set 'bodies[0].velocity=[0.5,0]'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["overrides"],
+            nlohmann::json({"solver=mpm", "time.duration=0.04", "bodies[0].velocity=[0.5,0]"}));
+  EXPECT_EQ(summary["quality"], "draft");
+  EXPECT_EQ(summary["threads"], 2);
+  EXPECT_FALSE(summary["snowsim"]["version"].get<std::string>().empty());
+  EXPECT_FALSE(summary["snowsim"]["commit"].get<std::string>().empty());
+  const auto& resolved = summary["resolved_scene"];
+  EXPECT_EQ(resolved["solver"], "mpm");
+  EXPECT_EQ(resolved["time"]["duration"], 0.04);
+  EXPECT_EQ(resolved["bodies"][0]["velocity"], nlohmann::json({0.5, 0.0}));
+  EXPECT_EQ(resolved["particles_per_cell"], 4) << "--quality draft gives MPM in 2D 4 a cell";
+
+  const fs::path resolved_file = out.string() + ".scene.json";
+  std::ofstream(resolved_file) << resolved.dump();
+  const Result rerun = runSnowsim("run " + resolved_file.string() + " -o " + again.string() +
+                                  " --no-png --no-mp4 --threads 1");
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  const auto summary_again = nlohmann::json::parse(std::ifstream(again / "run.json"));
+  EXPECT_EQ(summary_again["steps"], summary["steps"]);
+  EXPECT_EQ(summary_again["resolved_scene"], resolved);
+  for (const char* frame : {"frame_00000.ply", "frame_00002.ply"}) {
+    const snowsim::Snapshot a = snowsim::readPly((out / frame).string());
+    const snowsim::Snapshot b = snowsim::readPly((again / frame).string());
+    EXPECT_EQ(a.position, b.position) << frame;
+    EXPECT_EQ(a.velocity, b.velocity) << frame;
+  }
+}
+
+// Every scene file written back parses to a scene that writes back the same.
+TEST(RunDirectory, EveryScenesResolvedFormReadsBackTheSame) {
+  for (const auto& entry : fs::directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/scenes")) {
+    if (entry.path().filename() == "figures.json") continue;
+    const snowsim::Scene s = snowsim::loadScene(entry.path().string());
+    const auto written = snowsim::sceneToJson(s);
+    EXPECT_EQ(snowsim::sceneToJson(snowsim::parseScene(written, "resolved")), written)
+        << entry.path();
+  }
+}
+
+// A full disk mid-run: frame 3's PLY goes to /dev/full (its temporary file is a link there), so
+// the write fails with ENOSPC as on a full file system.
+TEST(RunDirectory, AFullDiskMidRunNamesTheFileAndKeepsEarlierFrames) {
+  for (const std::string failing : {"frame_00003.ply", "frame_00003.png"}) {
+    const fs::path out = freshDir("full_disk");
+    fs::create_directories(out);
+    fs::create_symlink("/dev/full", out / (failing + ".tmp"));
+    const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                                " --set time.duration=0.2 --width 64 --height 64 --no-mp4");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(
+        r.output.find((out / failing).string() + ": writing failed (No space left on device)"),
+        std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(out / failing));
+    EXPECT_FALSE(fs::exists(out / "run.json")) << "an unfinished run has no summary";
+    for (int frame = 0; frame < 3; ++frame) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%05d", frame);
+      EXPECT_EQ(snowsim::readPly((out / (std::string(name) + ".ply")).string()).size(), 25);
+      EXPECT_EQ(snowsim::readPng((out / (std::string(name) + ".png")).string()).width, 64);
+    }
+  }
+}
+
+}  // namespace

@@ -352,19 +352,15 @@ Real MpmSolver<D>::stableTimeStep() const {
 
 template <int D>
 StepLimit MpmSolver<D>::stepLimit() const {
-  // The particle of the largest signal speed: c_p + |v_p| for the CFL step, |v_p| semi-implicit.
+  // The terms of cflTimeStep (semi-implicit: advection alone): the fastest particle's speed and
+  // the wave speed of the snow's mean hardening H, with the J_P of that hardening,
+  // H = e^{xi (1 - J_P)} (paper eq. 8).
   StepLimit limit{stableTimeStep()};
-  Real largest = -1;
-  for (int p = 0; p < particles_.size(); ++p) {
-    const Real speed = particles_.v[p].norm();
-    const Real wave = semiImplicit() ? 0 : pWaveSpeed(particles_.lame[p], particles_.density[p]);
-    if (speed + wave <= largest) continue;
-    largest = speed + wave;
-    limit.particle_speed = speed;
-    limit.wave_speed = wave;
-    limit.plastic_j = particles_.J_P[p];
-    limit.hardening = particles_.lame[p].mu / material_.mu0();
-  }
+  limit.particle_speed = fastest_speed_;
+  if (semiImplicit()) return limit;
+  limit.wave_speed = fastest_wave_ * std::sqrt(bulk_hardening_);
+  limit.hardening = bulk_hardening_;
+  limit.plastic_j = 1 - std::log(bulk_hardening_) / material_.xi;
   return limit;
 }
 

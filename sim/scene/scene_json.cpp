@@ -12,6 +12,10 @@ Json entries(const Vec3& v, int dimension) {
   return Json(std::vector<double>(v.begin(), v.begin() + dimension));
 }
 
+const char* seedingName(Seeding seeding) {
+  return seeding == Seeding::Jittered ? "jittered" : "lattice";
+}
+
 const char* kernelName(KernelType k) {
   return k == KernelType::Cubic ? "cubic" : "quadratic";
 }
@@ -84,6 +88,7 @@ Json bodyJson(const Body& b, int dimension) {
   if (b.shape == BodyShape::HalfBall) j["cut_normal"] = entries(b.cut_normal, dimension);
   // A body without its own count takes the scene's, as it did here.
   if (b.own_particles_per_cell) j["particles_per_cell"] = b.particles_per_cell;
+  j["seeding"] = seedingName(b.seeding);
   return j;
 }
 
@@ -96,11 +101,21 @@ Json renderJson(const SceneRender& r) {
   if (r.grid) j["grid"] = *r.grid;
   if (r.density_cells) j["density_cells"] = *r.density_cells;
   if (r.camera) {
-    Json& c = j["camera"] = {{"eye", entries(r.camera->eye, 3)},
-                             {"target", entries(r.camera->target, 3)},
-                             {"up", entries(r.camera->up, 3)}};
+    Json& c = j["camera"] = Json::object();
+    if (r.camera->preset) {
+      c["preset"] = *r.camera->preset;
+    } else {
+      c = {{"eye", entries(r.camera->eye, 3)},
+           {"target", entries(r.camera->target, 3)},
+           {"up", entries(r.camera->up, 3)}};
+    }
     if (r.camera->fov) c["fov"] = *r.camera->fov;
   }
+  if (r.color_range) j["color_range"] = *r.color_range;
+  if (r.look) j["look"] = *r.look;
+  if (r.background) j["background"] = entries(*r.background, 3);
+  if (r.shadows) j["shadows"] = *r.shadows;
+  if (r.occlusion) j["occlusion"] = *r.occlusion;
   return j;
 }
 
@@ -128,6 +143,8 @@ Json sceneToJson(const Scene& s) {
             {"colliders", Json::array()},
             {"time", {{"dt", s.dt}, {"duration", s.duration}, {"fps", s.fps}}},
             {"particles_per_cell", s.particles_per_cell},
+            {"seeding", seedingName(s.seeding)},
+            {"seed", s.seed},
             {"bodies", Json::array()},
             {"render", renderJson(s.render)}};
   for (const ColliderParams& c : s.colliders) j["colliders"].push_back(colliderJson(c, d));

@@ -230,7 +230,7 @@ TEST(Cli, RunRecordsItsStageTimes) {
   const fs::path out = freshDir("stages");
   for (const std::string integrator : {"explicit", "semi_implicit"}) {
     const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
-                                " --set solver=mpm --set time.duration=0.02 --width 64 "
+                                " --overwrite --set solver=mpm --set time.duration=0.02 --width 64 "
                                 "--height 48 --no-mp4 --set mpm.integrator=" +
                                 integrator);
     ASSERT_EQ(r.code, 0) << r.output;
@@ -258,20 +258,19 @@ TEST(Cli, RunRecordsItsStageTimes) {
 TEST(Cli, RunWarnsWhenTheStepCollapses) {
   const fs::path out = freshDir("collapse");
   const std::string run = "run " + scene("snowball_drop") + " -o " + out.string() +
-                          " --no-png --no-mp4 --no-ply --set solver=mpm ";
+                          " --overwrite --no-png --no-mp4 --no-ply --set solver=mpm ";
   Result r = runSnowsim(run + "--set time.duration=0.3");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
   EXPECT_FALSE(runSummary(out).contains("step_collapse"));
 
-  // A ball thrown at the ground at 8 m/s: the snow it compacts hardens.
-  r = runSnowsim(run + "--set time.duration=0.04 --set 'bodies[0].velocity=[0,-8]'");
+  // A ball thrown at the ground at 12 m/s: the snow it compacts hardens.
+  r = runSnowsim(run + "--set time.duration=0.04 --set 'bodies[0].velocity=[0,-12]'");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("the time step fell below a quarter of the"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("s it started at, to "), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("the snow hardened. Its stiffest elastic wave runs at"),
-            std::string::npos)
+  EXPECT_NE(r.output.find("the snow hardened. Its elastic wave runs at"), std::string::npos)
       << r.output;
   auto collapse = runSummary(out)["step_collapse"];
   EXPECT_EQ(collapse["cause"], "hardening");

@@ -115,8 +115,9 @@ TEST(RunDirectory, RunJsonRecordsWhatReproducesTheRun) {
 
 // Every scene file written back parses to a scene that writes back the same.
 TEST(RunDirectory, EveryScenesResolvedFormReadsBackTheSame) {
-  for (const auto& entry : fs::directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/scenes")) {
-    if (entry.path().filename() == "figures.json") continue;
+  for (const auto& entry :
+       fs::recursive_directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/scenes")) {
+    if (!entry.is_regular_file() || entry.path().filename() == "figures.json") continue;
     const snowsim::Scene s = snowsim::loadScene(entry.path().string());
     const auto written = snowsim::sceneToJson(s);
     EXPECT_EQ(snowsim::sceneToJson(snowsim::parseScene(written, "resolved")), written)

@@ -22,8 +22,8 @@ std::string StepWatch::check(const Simulation& simulation) {
                         step);
   if (hardening)
     std::snprintf(text + n, sizeof text - n,
-                  "the snow hardened. Its elastic wave runs at %.3g m/s (%.3g at the start): "
-                  "compacted to a mean J_P = %.3g, the snow is exp(xi (1 - J_P)) = %.3g times as "
+                  "the snow hardened. Its stiffest elastic wave runs at %.3g m/s (%.3g at the "
+                  "start): compacted to J_P = %.3g, that snow is exp(xi (1 - J_P)) = %.3g times as "
                   "stiff (material.xi %g), and an explicit step must resolve the wave. A smaller "
                   "material.xi, or mpm.integrator=semi_implicit (whose step has no wave term), "
                   "keeps a larger step",

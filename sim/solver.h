@@ -21,16 +21,15 @@ struct StepSizes {
   double smallest = std::numeric_limits<double>::infinity(), largest = 0;
 };
 
-// What bounds the stable step now, for telling a user why it shrank: the step's signal speed
-// split into the fastest particle's speed (the step keeps it from crossing a cell) and the
-// elastic wave speed of the snow's mean hardening (an explicit step must resolve the wave), with
-// the plastic compression J_P that hardening stands for. A limit with no elastic term has
-// wave_speed 0.
+// What bounds the stable step now, for telling a user why it shrank: the particle whose signal
+// speed sets the step, that speed split into the particle's own speed (the step keeps it from
+// crossing a cell) and its elastic wave speed (an explicit step must resolve the wave), which
+// plastic hardening raises. A limit with no elastic term has wave_speed 0.
 struct StepLimit {
   double step = std::numeric_limits<double>::infinity();  // the stable step (s)
   double particle_speed = 0;                              // |v_p| (m/s)
   double wave_speed = 0;                                  // the P-wave speed c_p (m/s)
-  double plastic_j = 1;                                   // J_P of the mean hardening
+  double plastic_j = 1;                                   // J_P
   double hardening = 1;  // exp(xi (1 - J_P)): the Lame parameters' factor, c_p's squared
 };
 

@@ -254,10 +254,7 @@ Real MpmSolver<D>::measure(int p, PartMeasure& m) const {
   const Real v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
   m.speed = std::max(m.speed, v);
-  m.wave =
-      std::max(m.wave, pWaveSpeed({material_.mu0(), material_.lambda0()}, particles_.density[p]));
-  const Real hardening = std::min(particles_.lame[p].mu / material_.mu0(), kHardeningCap);
-  m.hardening += std::llround(hardening * (particles_.mass[p] / total_mass_) / kHardeningUnit);
+  m.signal = std::max(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
          (Real(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
@@ -274,16 +271,13 @@ void MpmSolver<D>::measureParticles() {
 template <int D>
 void MpmSolver<D>::collectMeasures() {
   schedule_.passDone();
-  fastest_speed_ = fastest_wave_ = 0;
+  fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
-  int64_t hardening = 0;
-  for (const PartMeasure& m : part_measures_) {  // maxima and integer sums: exact in any order
+  for (const PartMeasure& m : part_measures_) {  // maxima: exact in any order
     fastest_speed_ = std::max(fastest_speed_, m.speed);
-    fastest_wave_ = std::max(fastest_wave_, m.wave);
-    hardening += m.hardening;
+    fastest_signal_ = std::max(fastest_signal_, m.signal);
     finite_ = finite_ && m.finite;
   }
-  bulk_hardening_ = std::max(Real(1), Real(hardening) * kHardeningUnit);
   // The gravitational energy counts from the domain's lowest point along gravity, so it is >= 0.
   Real lowest = 0;  // min over the domain box of -g.x
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
@@ -329,12 +323,9 @@ void MpmSolver<D>::updateParticles(Real dt) {
 
 template <int D>
 Real MpmSolver<D>::cflTimeStep() const {
-  // dt <= C h / (c + |v|max) with the bulk P-wave speed c = sqrt((lambda + 2 mu) / rho) of the
-  // snow's mass-weighted mean hardening, not the stiffest particle's: compacted snow yields or
-  // sits on a collider, and the smash runs stable at steps 3-5 times the stiffest particle's
-  // limit (docs/snow-at-scale.md).
-  const Real signal = fastest_wave_ * std::sqrt(bulk_hardening_) + fastest_speed_;
-  return signal > 0 ? params_.cfl * grid_.h / signal : std::numeric_limits<Real>::infinity();
+  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md).
+  return fastest_signal_ > 0 ? params_.cfl * grid_.h / fastest_signal_
+                             : std::numeric_limits<Real>::infinity();
 }
 
 template <int D>
@@ -352,15 +343,19 @@ Real MpmSolver<D>::stableTimeStep() const {
 
 template <int D>
 StepLimit MpmSolver<D>::stepLimit() const {
-  // The terms of cflTimeStep (semi-implicit: advection alone): the fastest particle's speed and
-  // the wave speed of the snow's mean hardening H, with the J_P of that hardening,
-  // H = e^{xi (1 - J_P)} (paper eq. 8).
+  // The particle of the largest signal speed: c_p + |v_p| for the CFL step, |v_p| semi-implicit.
   StepLimit limit{stableTimeStep()};
-  limit.particle_speed = fastest_speed_;
-  if (semiImplicit()) return limit;
-  limit.wave_speed = fastest_wave_ * std::sqrt(bulk_hardening_);
-  limit.hardening = bulk_hardening_;
-  limit.plastic_j = 1 - std::log(bulk_hardening_) / material_.xi;
+  Real largest = -1;
+  for (int p = 0; p < particles_.size(); ++p) {
+    const Real speed = particles_.v[p].norm();
+    const Real wave = semiImplicit() ? 0 : pWaveSpeed(particles_.lame[p], particles_.density[p]);
+    if (speed + wave <= largest) continue;
+    largest = speed + wave;
+    limit.particle_speed = speed;
+    limit.wave_speed = wave;
+    limit.plastic_j = particles_.J_P[p];
+    limit.hardening = particles_.lame[p].mu / material_.mu0();
+  }
   return limit;
 }
 

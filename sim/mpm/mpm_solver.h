@@ -5,7 +5,6 @@
 // (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/).
 #pragma once
 
-#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -105,8 +104,7 @@ class MpmSolver final : public Solver<D> {
   // What the particle pass measures: the fastest particles of one part, for the CFL limits and
   // the blow-up check; the energy is summed by the schedule.
   struct PartMeasure {
-    Real speed = 0, wave = 0;  // max |v_p|, max unhardened P-wave speed
-    int64_t hardening = 0;     // sum of m_p / M e^{xi (1 - J_P)} in units of kHardeningUnit
+    Real speed = 0, signal = 0;
     bool finite = true;
   };
   // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
@@ -135,8 +133,7 @@ class MpmSolver final : public Solver<D> {
   // Measured once at the end of each step, read by the CFL limits and the blow-up check.
   std::vector<PartMeasure> part_measures_;
   Real fastest_speed_ = 0;   // max |v_p|
-  Real fastest_wave_ = 0;    // max c_p at mu0, lambda0: the P-wave speed of unhardened snow
-  Real bulk_hardening_ = 1;  // max(1, mass-weighted mean of e^{xi (1 - J_P)})
+  Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
   bool finite_ = true;       // every position and velocity finite
   Real energy_ = 0;          // kinetic + gravitational (J)
   Real initial_energy_ = 0;
@@ -146,10 +143,6 @@ class MpmSolver final : public Solver<D> {
   // at fixed dt (docs/mpm.md): stable steps keep it within 0.1%, a step 1.6x beyond the stable one
   // grows it 7.5% as the ball flies apart, 1.8x doubles it.
   static constexpr Real kEnergyGrowthLimit = 1.05;
-  // The hardening's mean is summed in fixed point, so that it is exact in any order (on any
-  // thread count); one particle's factor is capped where the step is long past useful anyway.
-  static constexpr Real kHardeningUnit = Real(1) / (int64_t(1) << 32);
-  static constexpr Real kHardeningCap = 1e6;
   // The stable dt at the first step a fixed dt exceeded it, before the blow-up inflated the speeds
   // (what the blow-up message recommends), and that step.
   Real limit_when_exceeded_ = std::numeric_limits<Real>::infinity();

@@ -270,7 +270,8 @@ TEST(Cli, RunWarnsWhenTheStepCollapses) {
   EXPECT_NE(r.output.find("the time step fell below a quarter of the"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("s it started at, to "), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("the snow hardened. Its elastic wave runs at"), std::string::npos)
+  EXPECT_NE(r.output.find("the snow hardened. Its stiffest elastic wave runs at"),
+            std::string::npos)
       << r.output;
   auto collapse = runSummary(out)["step_collapse"];
   EXPECT_EQ(collapse["cause"], "hardening");
@@ -487,7 +488,7 @@ TEST(Cli, RunRecordsTheStepSizes) {
             0);
   const auto summary = nlohmann::json::parse(std::ifstream(adaptive / "run.json"));
   const auto mpm = summary["step_size"];
-  EXPECT_LT(mpm["smallest"].get<double>(), 0.8 * mpm["largest"].get<double>());
+  EXPECT_LT(mpm["smallest"].get<double>(), 0.5 * mpm["largest"].get<double>());
   EXPECT_LE(mpm["smallest"].get<double>(), mpm["mean"].get<double>());
   EXPECT_NEAR(mpm["mean"].get<double>(), 0.2 / summary["steps"].get<double>(), 1e-12);
 }

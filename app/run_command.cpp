@@ -28,8 +28,9 @@ struct RunOptions {
   std::string scene;
   std::string out = "out";
   std::vector<std::string> overrides;
-  std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
-  int threads = 0;      // the solver's threads; 0: the OpenMP default
+  std::string quality;    // draft | figure | reference (app/quality.h); empty: the scene as written
+  int threads = 0;        // the solver's threads; 0: the OpenMP default
+  std::string precision;  // double | float: mpm.precision; empty: the scene's
   bool ply = true;
   RenderOptions render;
 };
@@ -51,8 +52,10 @@ void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
   checkQualityLevel(options.quality);
-  Scene scene = loadScene(options.scene, options.overrides);
-  applyQuality(options.quality, options.overrides, scene);
+  std::vector<std::string> overrides = options.overrides;
+  if (!options.precision.empty()) overrides.push_back("mpm.precision=" + options.precision);
+  Scene scene = loadScene(options.scene, overrides);
+  applyQuality(options.quality, overrides, scene);
   // Every setting is checked before anything is written.
   const RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -145,6 +148,10 @@ void addRunCommand(CLI::App& app) {
                   "(MPM reference) cell size from the measured speed/accuracy front "
                   "(docs/study.md); --set overrides them");
   addThreadsOption(*cmd, options->threads);
+  cmd->add_option("--precision", options->precision,
+                  "double | float: the precision of the MPM state and step (mpm.precision; "
+                  "docs/performance.md); float runs the explicit integrator only")
+      ->check(CLI::IsMember({"double", "float"}));
   addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);
   cmd->footer(

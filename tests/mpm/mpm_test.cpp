@@ -493,6 +493,7 @@ TEST(Mpm, BadInputNamesTheField) {
       {"material.theta_s=0", "material.theta_s"},
       {"solver=fem", "solver"},
       {"mpm.transfer=sph", "mpm.transfer"},
+      {"mpm.precision=half", "mpm.precision"},
       {"colliders=[{\"shape\":\"box\",\"position\":[0.05,0.05],\"size\":[-0.01,0.02]}]",
        "colliders[0].size"}};
   for (const auto& [assignment, field] : cases) {
@@ -503,15 +504,23 @@ TEST(Mpm, BadInputNamesTheField) {
       EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
     }
   }
+  // Single precision runs the explicit integrator only.
+  try {
+    loadScene(SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json",
+              {"mpm.precision=float", "mpm.integrator=semi_implicit"});
+    ADD_FAILURE() << "a float semi-implicit scene was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mpm.precision"), std::string::npos) << e.what();
+  }
 }
 
 // Runs the scene for 4 ms on 1 (twice), 2 and 3 threads, and on 3 threads then 2 on one solver,
 // and expects the same positions bit for bit. Three threads on two cores: the work splits
 // unevenly and the threads take turns.
-template <int D>
+template <int D, class T = Real>
 void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) {
   auto runWith = [&](int threads, int then_threads) {
-    auto s = makeSolver<D>(j, threads);
+    auto s = makeSolver<D, T>(j, threads);
     run(s, 0.002);
     s.setThreads(then_threads);
     run(s, 0.002);
@@ -537,6 +546,7 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     j["mpm"] = {{"transfer", transfer}};
     expectBitIdenticalOnAnyThreadCount<2>(j, transfer);
   }
+  expectBitIdenticalOnAnyThreadCount<2, float>(j, "mls, float");
   j["mpm"] = {{"integrator", "semi_implicit"}};
   expectBitIdenticalOnAnyThreadCount<2>(j, "semi-implicit");
   // 3D: four colours of rows, blocks of 4^3 cells.
@@ -548,6 +558,7 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   j["bodies"][0]["velocity"] = {1, -2, 0.5};
   j["mpm"] = {{"transfer", "apic"}};
   expectBitIdenticalOnAnyThreadCount<3>(j, "3D APIC");
+  expectBitIdenticalOnAnyThreadCount<3, float>(j, "3D APIC, float");
 }
 
 // The particles' stored order changes only round-off (the order of the scatter's sums within a

@@ -42,6 +42,7 @@ struct RunOptions {
   double scale = 1;     // resolution factor (app/scale.h)
   bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
   int threads = 0;             // the solver's threads; 0: the OpenMP default
+  std::string precision;       // double | float: mpm.precision; empty: the scene's
   bool ply = true;
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
@@ -101,9 +102,11 @@ void run(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
   checkQualityLevel(options.quality);
-  Scene scene = loadScene(options.scene, options.overrides);
-  applyQuality(options.quality, options.overrides, scene);
-  if (options.scale != 1) applyScale(options.scale, options.overrides, scene);
+  std::vector<std::string> overrides = options.overrides;
+  if (!options.precision.empty()) overrides.push_back("mpm.precision=" + options.precision);
+  Scene scene = loadScene(options.scene, overrides);
+  applyQuality(options.quality, overrides, scene);
+  if (options.scale != 1) applyScale(options.scale, overrides, scene);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -237,6 +240,10 @@ void addRunCommand(CLI::App& app) {
                 "Print the cost and time estimate from the first 11 steps, then stop; writes "
                 "nothing");
   addThreadsOption(*cmd, options->threads);
+  cmd->add_option("--precision", options->precision,
+                  "double | float: the precision of the MPM state and step (mpm.precision; "
+                  "docs/performance.md); float runs the explicit integrator only")
+      ->check(CLI::IsMember({"double", "float"}));
   addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
   options->render.addTo(*cmd);
   cmd->footer(

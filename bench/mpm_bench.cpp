@@ -1,8 +1,9 @@
 // Speed of MPM snow: particle-steps per second (median of repetitions), 2D and 3D explicit MLS with
-// quadratic weights, 1 and 2 threads (whether they agree bit for bit, and what two one-thread
-// solvers side by side reach), bytes per particle; with "profile", also where each step's time
-// goes, stage by stage and thread by thread.
-// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d] [profile]
+// quadratic weights, in double and in float (mpm.precision), 1 and 2 threads (whether they agree
+// bit for bit, and what two one-thread solvers side by side reach), bytes per particle; with
+// "profile", also where each step's time goes, stage by stage and thread by thread.
+// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d]
+//                  [double | float | both=both] [profile]
 #include <omp.h>
 
 #include <algorithm>
@@ -59,10 +60,10 @@ using StageProfile = std::vector<std::vector<StageTime>>;
 
 // Particle-steps per second of one run of the scene on the given thread count; its positions,
 // and, if asked for, how many times its particles were binned and its stage profile.
-template <int D>
+template <int D, class T>
 double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions,
            StageProfile* profile = nullptr, long* binnings = nullptr) {
-  MpmSolver<D> s(scene, sampleBodies<D>(scene), threads);
+  MpmSolver<D, T> s(scene, sampleBodies<D>(scene), threads);
   const Real dt = 0.5 * s.cflTimeStep();
   s.profileStages(profile != nullptr);
   const auto t0 = std::chrono::steady_clock::now();
@@ -82,8 +83,8 @@ double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& posi
 // on one thread, and on each of two threads the work of its parts and the wait for the other.
 // The binning's stages run every step in 3D but rarely in 2D (the bench prints how often), the
 // sort's at most every 16th step: their figures are what they cost spread over the steps.
-template <int D>
-void profile(const char* label, const Json& j, int steps, int reps) {
+template <int D, class T>
+void profile(const std::string& label, const Json& j, int steps, int reps) {
   const Scene scene = parseScene(j, "bench");
   enum Column { alone, work0, wait0, work1, wait1, columns };
   std::vector<std::string_view> stages;  // in the order first met
@@ -95,16 +96,16 @@ void profile(const char* label, const Json& j, int steps, int reps) {
   std::vector<Vec<D>> positions;
   StageProfile one, two;
   for (int r = 0; r < reps; ++r) {
-    run<D>(scene, 1, steps, positions, &one);
+    run<D, T>(scene, 1, steps, positions, &one);
     for (const StageTime& t : one[0]) add(t.stage, alone, t.work_seconds);
-    run<D>(scene, 2, steps, positions, &two);
+    run<D, T>(scene, 2, steps, positions, &two);
     for (int thread = 0; thread < std::min<int>(2, two.size()); ++thread)
       for (const StageTime& t : two[thread]) {
         add(t.stage, thread == 0 ? work0 : work1, t.work_seconds);
         add(t.stage, thread == 0 ? wait0 : wait1, t.wait_seconds);
       }
   }
-  std::printf("%s, µs per step: 1 thread; 2 threads, each thread's work + wait\n", label);
+  std::printf("%s, µs per step: 1 thread; 2 threads, each thread's work + wait\n", label.c_str());
   std::array<double, columns> sums{};
   for (const std::string_view stage : stages) {
     std::printf("  %-18.*s", int(stage.size()), stage.data());
@@ -127,12 +128,12 @@ void profile(const char* label, const Json& j, int steps, int reps) {
 // per thread, sharing nothing: what two cores deliver on this very work with no cut between
 // them, the ceiling of the two-thread solver. Each counts its rate over its first `steps` steps
 // and keeps stepping until the other has too, so that neither runs its last steps alone.
-template <int D>
+template <int D, class T>
 double sideBySideRate(const Scene& scene, int steps) {
   std::atomic<int> ready{0}, finished{0};
   std::array<double, 2> rate{};
   const auto solve = [&](int k) {
-    MpmSolver<D> s(scene, sampleBodies<D>(scene), 1);  // a solver without worker threads
+    MpmSolver<D, T> s(scene, sampleBodies<D>(scene), 1);  // a solver without worker threads
     const Real dt = 0.5 * s.cflTimeStep();
     ready.fetch_add(1);
     while (ready.load() < 2) {
@@ -154,28 +155,28 @@ double sideBySideRate(const Scene& scene, int steps) {
 // One and two threads alternate, so a slow period of a shared machine hits both alike; the
 // speed-up is the median of the ratios of each pair. The ceiling, two one-thread solvers side by
 // side over the one-thread rate, is measured just before each pair.
-template <int D>
-void measure(const char* label, const Json& j, int steps, int reps) {
+template <int D, class T>
+void measure(const std::string& label, const Json& j, int steps, int reps) {
   const Scene scene = parseScene(j, "bench");
   std::vector<Vec<D>> one_thread, two_threads;
   std::vector<double> rate1, rate2, ratio, ceiling;
   long binnings = 0;
   for (int r = 0; r < reps; ++r) {
-    const double side_by_side = sideBySideRate<D>(scene, steps);
-    rate1.push_back(run<D>(scene, 1, steps, one_thread, nullptr, &binnings));
+    const double side_by_side = sideBySideRate<D, T>(scene, steps);
+    rate1.push_back(run<D, T>(scene, 1, steps, one_thread, nullptr, &binnings));
     ceiling.push_back(side_by_side / rate1.back());
-    rate2.push_back(run<D>(scene, 2, steps, two_threads));
+    rate2.push_back(run<D, T>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
   // x, v; mass, volume, density, J_P; body, id, block, sorted order; F_E, R_E, C (3D: V_E); Lamé;
   // one spare array of each type, which the particles are sorted into.
-  const size_t bytes = sizeof(Vec<D>) * 3 + sizeof(Real) * 5 + sizeof(int) * 5 +
-                       sizeof(Mat<D>) * (D == 3 ? 5 : 4) + sizeof(Lame) * 2;
+  const size_t bytes = sizeof(Vec<D, T>) * 3 + sizeof(T) * 5 + sizeof(int) * 5 +
+                       sizeof(Mat<D, T>) * (D == 3 ? 5 : 4) + sizeof(LameOf<T>) * 2;
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f; "
       "two solvers side by side x%.2f), bit-identical: %s, %zu bytes/particle, binned %ld "
       "times in %d steps\n",
-      label, one_thread.size(), median(rate1) / 1e6, median(rate2) / 1e6, median(ratio),
+      label.c_str(), one_thread.size(), median(rate1) / 1e6, median(rate2) / 1e6, median(ratio),
       median(ceiling), one_thread == two_threads ? "yes" : "NO", bytes, binnings, steps);
 }
 
@@ -218,19 +219,30 @@ int main(int argc, char** argv) {
                  only.c_str());
     return 2;
   }
-  const std::string extra = argc > 4 ? argv[4] : "";
-  if (!extra.empty() && extra != "profile") {
-    std::fprintf(stderr, "mpm_bench: the fourth argument '%s' is not 'profile'\n", extra.c_str());
-    return 2;
+  std::string precision = "both";
+  bool profiled = false;
+  for (int arg = 4; arg < argc; ++arg) {
+    const std::string word = argv[arg];
+    if (word == "profile") {
+      profiled = true;
+    } else if (word == "double" || word == "float" || word == "both") {
+      precision = word;
+    } else {
+      std::fprintf(stderr, "mpm_bench: '%s' is none of double, float, both, profile\n", argv[arg]);
+      return 2;
+    }
   }
-  const bool profiled = extra == "profile";
   if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
     std::printf("core-to-core round trip %.0f ns\n", round_trip);
   else
     std::printf("core-to-core round trip not measured: two threads did not run at once\n");
-  const auto bench = [&]<int D>(const char* label, const Json& scene) {
-    measure<D>(label, scene, steps, reps);
-    if (profiled) profile<D>(label, scene, steps, reps);
+  const auto benchIn = [&]<int D, class T>(const std::string& label, const Json& scene) {
+    measure<D, T>(label, scene, steps, reps);
+    if (profiled) profile<D, T>(label, scene, steps, reps);
+  };
+  const auto bench = [&]<int D>(const std::string& label, const Json& scene) {
+    if (precision != "float") benchIn.operator()<D, double>(label + ", double", scene);
+    if (precision != "double") benchIn.operator()<D, float>(label + ", float", scene);
   };
   if (only == "all" || only == "2d-small")
     bench.operator()<2>("2D MLS quadratic, small", sceneJson(2, 64, 0.44));

@@ -16,7 +16,9 @@ template <int D>
 class SimulationOf final : public Simulation {
  public:
   SimulationOf(const Scene& scene, int threads) : scene_(scene) {
-    if (scene.solver == SolverType::Mpm)
+    if (scene.solver == SolverType::Mpm && scene.mpm.precision == MpmPrecision::Float)
+      solver_ = std::make_unique<MpmSolver<D, float>>(scene, sampleBodies<D>(scene), threads);
+    else if (scene.solver == SolverType::Mpm)
       solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene), threads);
     else
       solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));

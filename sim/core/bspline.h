@@ -14,15 +14,16 @@ enum class KernelType { Quadratic, Cubic };
 struct QuadraticBSpline {
   static constexpr int support = 3;
   // N(x) = 3/4 - x^2 for |x| < 1/2; (3/2 - |x|)^2 / 2 for 1/2 <= |x| < 3/2.
-  static int weights(Real X, Real w[3], Real dw[3]) {
-    const int base = static_cast<int>(std::floor(X - Real(0.5)));
-    const Real fx = X - base;  // in [0.5, 1.5)
-    w[0] = Real(0.5) * (Real(1.5) - fx) * (Real(1.5) - fx);
-    w[1] = Real(0.75) - (fx - 1) * (fx - 1);
-    w[2] = Real(0.5) * (fx - Real(0.5)) * (fx - Real(0.5));
-    dw[0] = fx - Real(1.5);
+  template <class T>
+  static int weights(T X, T w[3], T dw[3]) {
+    const int base = static_cast<int>(std::floor(X - T(0.5)));
+    const T fx = X - T(base);  // in [0.5, 1.5)
+    w[0] = T(0.5) * (T(1.5) - fx) * (T(1.5) - fx);
+    w[1] = T(0.75) - (fx - 1) * (fx - 1);
+    w[2] = T(0.5) * (fx - T(0.5)) * (fx - T(0.5));
+    dw[0] = fx - T(1.5);
     dw[1] = -2 * (fx - 1);
-    dw[2] = fx - Real(0.5);
+    dw[2] = fx - T(0.5);
     return base;
   }
 };
@@ -30,23 +31,26 @@ struct QuadraticBSpline {
 struct CubicBSpline {
   static constexpr int support = 4;
   // N(x) = |x|^3/2 - x^2 + 2/3 for |x| < 1; -|x|^3/6 + x^2 - 2|x| + 4/3 for 1 <= |x| < 2.
-  static Real value(Real x) {
-    const Real a = std::abs(x);
-    if (a < 1) return Real(0.5) * a * a * a - a * a + Real(2) / 3;
-    if (a < 2) return -a * a * a / 6 + a * a - 2 * a + Real(4) / 3;
+  template <class T>
+  static T value(T x) {
+    const T a = std::abs(x);
+    if (a < 1) return T(0.5) * a * a * a - a * a + T(2) / 3;
+    if (a < 2) return -a * a * a / 6 + a * a - 2 * a + T(4) / 3;
     return 0;
   }
-  static Real derivative(Real x) {
-    const Real a = std::abs(x);
-    const Real s = x < 0 ? Real(-1) : Real(1);
-    if (a < 1) return Real(1.5) * x * a - 2 * x;
-    if (a < 2) return Real(-0.5) * x * a + 2 * x - 2 * s;
+  template <class T>
+  static T derivative(T x) {
+    const T a = std::abs(x);
+    const T s = x < 0 ? T(-1) : T(1);
+    if (a < 1) return T(1.5) * x * a - 2 * x;
+    if (a < 2) return T(-0.5) * x * a + 2 * x - 2 * s;
     return 0;
   }
-  static int weights(Real X, Real w[4], Real dw[4]) {
+  template <class T>
+  static int weights(T X, T w[4], T dw[4]) {
     const int base = static_cast<int>(std::floor(X)) - 1;
     for (int k = 0; k < 4; ++k) {
-      const Real d = X - (base + k);
+      const T d = X - T(base + k);
       w[k] = value(d);
       dw[k] = derivative(d);
     }
@@ -54,29 +58,31 @@ struct CubicBSpline {
   }
 };
 
-// The weights of one particle over its whole D-dimensional stencil, kept per axis.
-template <int D, class Kernel>
+// The weights of one particle over its whole D-dimensional stencil, kept per axis, in the
+// precision T of the particle's state.
+template <int D, class Kernel, class T = Real>
 struct Stencil {
+  using Scalar = T;
   static constexpr int support = Kernel::support;
   static constexpr int nodes = D == 2 ? support * support : support * support * support;
   IVec<D> base;
-  Real w[D][support];
-  Real dw[D][support];  // dN/dX, in units of 1/h
+  T w[D][support];
+  T dw[D][support];  // dN/dX, in units of 1/h
 
-  Stencil(const Vec<D>& x, Real inv_h) {
+  Stencil(const Vec<D, T>& x, T inv_h) {
     for (int a = 0; a < D; ++a) base[a] = Kernel::weights(x[a] * inv_h, w[a], dw[a]);
   }
 
   // The weight and its gradient (eq. 6, in 1/m) at the node with per-axis offsets o.
-  Real weightAt(const int (&o)[D]) const {
-    Real r = 1;
+  T weightAt(const int (&o)[D]) const {
+    T r = 1;
     for (int a = 0; a < D; ++a) r *= w[a][o[a]];
     return r;
   }
-  Vec<D> gradientAt(const int (&o)[D], Real inv_h) const {
-    Vec<D> g;
+  Vec<D, T> gradientAt(const int (&o)[D], T inv_h) const {
+    Vec<D, T> g;
     for (int a = 0; a < D; ++a) {
-      Real r = dw[a][o[a]] * inv_h;
+      T r = dw[a][o[a]] * inv_h;
       for (int b = 0; b < D; ++b)
         if (b != a) r *= w[b][o[b]];
       g[a] = r;

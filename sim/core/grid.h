@@ -72,24 +72,25 @@ struct NodeBox {
   }
 };
 
-// Per-node mass, velocity and force: the fields every grid solver here rasterises into.
-template <int D>
+// Per-node mass, velocity and force: the fields every grid solver here rasterises into, in the
+// precision T of the solver's state.
+template <int D, class T = Real>
 struct GridFields {
-  std::vector<Real> mass;
-  std::vector<Vec<D>> velocity;      // after rasterisation, then updated in place
-  std::vector<Vec<D>> velocity_old;  // velocity as rasterised, for the FLIP increment
-  std::vector<Vec<D>> force;
+  std::vector<T> mass;
+  std::vector<Vec<D, T>> velocity;      // after rasterisation, then updated in place
+  std::vector<Vec<D, T>> velocity_old;  // velocity as rasterised, for the FLIP increment
+  std::vector<Vec<D, T>> force;
 
   void resize(int n) {
     mass.assign(n, 0);
-    velocity.assign(n, Vec<D>::Zero());
-    velocity_old.assign(n, Vec<D>::Zero());
-    force.assign(n, Vec<D>::Zero());
+    velocity.assign(n, Vec<D, T>::Zero());
+    velocity_old.assign(n, Vec<D, T>::Zero());
+    force.assign(n, Vec<D, T>::Zero());
   }
   void clear() {
-    std::fill(mass.begin(), mass.end(), Real(0));
-    std::fill(velocity.begin(), velocity.end(), Vec<D>::Zero());
-    std::fill(force.begin(), force.end(), Vec<D>::Zero());
+    std::fill(mass.begin(), mass.end(), T(0));
+    std::fill(velocity.begin(), velocity.end(), Vec<D, T>::Zero());
+    std::fill(force.begin(), force.end(), Vec<D, T>::Zero());
   }
 };
 

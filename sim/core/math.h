@@ -7,10 +7,11 @@ namespace snowsim {
 
 using Real = double;
 
-template <int D>
-using Vec = Eigen::Matrix<Real, D, 1>;
-template <int D>
-using Mat = Eigen::Matrix<Real, D, D>;
+// T: the scalar of a state kept in single precision (MPM's mpm.precision), double elsewhere.
+template <int D, class T = Real>
+using Vec = Eigen::Matrix<T, D, 1>;
+template <int D, class T = Real>
+using Mat = Eigen::Matrix<T, D, D>;
 template <int D>
 using IVec = Eigen::Matrix<int, D, 1>;
 

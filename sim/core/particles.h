@@ -9,15 +9,18 @@
 
 namespace snowsim {
 
-template <int D>
+// T: the scalar of the solver's state (MPM may keep it in single precision); what solvers hand
+// out is in double.
+template <int D, class T = Real>
 struct Particles {
-  std::vector<Vec<D>> x;      // position, m
-  std::vector<Vec<D>> v;      // velocity, m/s
-  std::vector<Real> mass;     // kg
-  std::vector<Real> volume;   // initial volume V_p^0, m^D (set on the first step)
-  std::vector<Real> density;  // density rho_p^0, kg/m^D (set on the first step)
-  std::vector<int> body;      // index of the body the particle was generated in
-  std::vector<int> id;        // index at creation: stable however the solver reorders them
+  using Scalar = T;
+  std::vector<Vec<D, T>> x;  // position, m
+  std::vector<Vec<D, T>> v;  // velocity, m/s
+  std::vector<T> mass;       // kg
+  std::vector<T> volume;     // initial volume V_p^0, m^D (set on the first step)
+  std::vector<T> density;    // density rho_p^0, kg/m^D (set on the first step)
+  std::vector<int> body;     // index of the body the particle was generated in
+  std::vector<int> id;       // index at creation: stable however the solver reorders them
 
   int size() const { return static_cast<int>(x.size()); }
 
@@ -29,12 +32,12 @@ struct Particles {
   }
 
   // The positions in creation order, whatever order the particles are stored in.
-  std::vector<Vec<D>> positionsById() const {
-    std::vector<Vec<D>> by_id(x.size());
+  std::vector<Vec<D, T>> positionsById() const {
+    std::vector<Vec<D, T>> by_id(x.size());
     for (int i = 0; i < size(); ++i) by_id[id[i]] = x[i];
     return by_id;
   }
-  void add(const Vec<D>& position, const Vec<D>& velocity, Real m, int body_index) {
+  void add(const Vec<D, T>& position, const Vec<D, T>& velocity, T m, int body_index) {
     x.push_back(position);
     v.push_back(velocity);
     mass.push_back(m);

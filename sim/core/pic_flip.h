@@ -8,8 +8,9 @@ namespace snowsim {
 
 // v_p = (1 - alpha) v_PIC + alpha (v_p + sum_i w_ip (v_i - v_i^old)): pic is sum_i w_ip v_i,
 // increment the FLIP change sum_i w_ip (v_i - v_i^old).
-template <int D>
-Vec<D> picFlipBlend(const Vec<D>& v_p, const Vec<D>& pic, const Vec<D>& increment, Real alpha) {
+template <int D, class T = Real>
+Vec<D, T> picFlipBlend(const Vec<D, T>& v_p, const Vec<D, T>& pic, const Vec<D, T>& increment,
+                       T alpha) {
   return (1 - alpha) * pic + alpha * (v_p + increment);
 }
 

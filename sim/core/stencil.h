@@ -11,33 +11,33 @@ namespace snowsim {
 
 // The node of a particle's stencil being visited: flat grid index, per-axis offsets into the
 // stencil (for Stencil::weightAt / gradientAt) and x_i - x_p, which APIC/MLS need.
-template <int D>
+template <int D, class T = Real>
 struct StencilVisit {
   int index;
   int offset[D];
-  Vec<D> dx;
+  Vec<D, T> dx;
 };
 
 // Calls f(const StencilVisit<D>&) for every node of the particle's stencil, axis 0 fastest. The
 // nodes are unrolled at compile time (a fold over the node numbers), so each node's offsets are
 // constants: no integer division and no loop in the transfer hot loops.
-template <int D, class Kernel, class F, int... Node>
-inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s,
-                              const Vec<D>& x, F&& f, std::integer_sequence<int, Node...>) {
+template <int D, class Kernel, class T, class F, int... Node>
+inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s,
+                              const Vec<D, T>& x, F&& f, std::integer_sequence<int, Node...>) {
   constexpr int S = Kernel::support;
-  Real dx[D][S];
+  T dx[D][S];
   for (int a = 0; a < D; ++a)
-    for (int o = 0; o < S; ++o) dx[a][o] = (s.base[a] + o) * grid.h - x[a];
+    for (int o = 0; o < S; ++o) dx[a][o] = T(s.base[a] + o) * T(grid.h) - x[a];
   const int base = grid.index(s.base);
   auto visit = [&]<int n>(std::integral_constant<int, n>) {
-    StencilVisit<D> v;
+    StencilVisit<D, T> v;
     v.index = base;
     for (int a = 0, place = 1; a < D; ++a, place *= S) {
       v.offset[a] = n / place % S;
       v.dx[a] = dx[a][v.offset[a]];
       v.index += v.offset[a] * grid.stride[a];
     }
-    f(static_cast<const StencilVisit<D>&>(v));
+    f(static_cast<const StencilVisit<D, T>&>(v));
   };
   (visit(std::integral_constant<int, Node>{}), ...);
 }
@@ -45,17 +45,17 @@ inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kern
 // Flattened: the per-node lambda and everything it calls are inlined into each unrolled node, which
 // keeps the transfers' values in registers (bench/mpm_bench measures it). A callback that calls
 // much (a test's assertions) makes this slow to compile: collect the nodes first there.
-template <int D, class Kernel, class F>
+template <int D, class Kernel, class T, class F>
 [[gnu::flatten]] inline void visitStencilFlattened(const GridGeometry<D>& grid,
-                                                   const Stencil<D, Kernel>& s, const Vec<D>& x,
-                                                   F&& f) {
+                                                   const Stencil<D, Kernel, T>& s,
+                                                   const Vec<D, T>& x, F&& f) {
   visitStencilNodes(grid, s, x, std::forward<F>(f),
-                    std::make_integer_sequence<int, Stencil<D, Kernel>::nodes>{});
+                    std::make_integer_sequence<int, Stencil<D, Kernel, T>::nodes>{});
 }
 
-template <int D, class Kernel, class F>
-inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x,
-                         F&& f) {
+template <int D, class Kernel, class T, class F>
+inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s,
+                         const Vec<D, T>& x, F&& f) {
   visitStencilFlattened(grid, s, x, std::forward<F>(f));
 }
 
@@ -65,45 +65,46 @@ inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& 
 // at a time, and a gather sums a row of the innermost axis before weighting it by the outer axes.
 // Per node this costs a few additions where the node-by-node visit above costs a D x D
 // matrix-vector product.
-template <int D, class Kernel>
+template <int D, class Kernel, class T = Real>
 class TensorStencil {
  public:
   static constexpr int S = Kernel::support;
+  using V = Vec<D, T>;
+  using M = Mat<D, T>;
 
-  TensorStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s, const Vec<D>& x)
+  TensorStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s, const V& x)
       : s_(s), base_(grid.index(s.base)) {
     for (int a = 0; a < D; ++a) {
       stride_[a] = grid.stride[a];
-      for (int o = 0; o < S; ++o) dx_[a][o] = (s.base[a] + o) * grid.h - x[a];
+      for (int o = 0; o < S; ++o) dx_[a][o] = T(s.base[a] + o) * T(grid.h) - x[a];
     }
   }
 
   // Calls scatter(node_index, w_ip, v + A (x_i - x_p)) for every node of the stencil.
   template <class Scatter>
-  void scatterAffine(const Vec<D>& v, const Mat<D>& A, Scatter&& scatter) const {
-    Vec<D> term[D][S];  // A.col(a) dx_a(o)
+  void scatterAffine(const V& v, const M& A, Scatter&& scatter) const {
+    V term[D][S];  // A.col(a) dx_a(o)
     for (int a = 0; a < D; ++a)
       for (int o = 0; o < S; ++o) term[a][o] = A.col(a) * dx_[a][o];
-    scatterAxis<D - 1>(base_, Real(1), v, term, scatter);
+    scatterAxis<D - 1>(base_, T(1), v, term, scatter);
   }
 
   // Returns sum_i w_ip v_i and sets moment = sum_i w_ip v_i (x_i - x_p)^T (APIC's B_p, Jiang et
   // al. 2015, eq. 10), v_i = field[i].
-  Vec<D> gatherAffine(const Vec<D>* field, Mat<D>& moment) const {
-    Vec<D> sum;
+  V gatherAffine(const V* field, M& moment) const {
+    V sum;
     gatherAxis<D - 1>(base_, field, sum, moment);
     return sum;
   }
 
  private:
   template <int a, class Scatter>
-  void scatterAxis(int index, Real w, const Vec<D>& value, const Vec<D> (&term)[D][S],
-                   Scatter& scatter) const {
+  void scatterAxis(int index, T w, const V& value, const V (&term)[D][S], Scatter& scatter) const {
 #pragma GCC unroll 4
     for (int o = 0; o < S; ++o) {
       const int k = index + o * stride_[a];
-      const Real wo = w * s_.w[a][o];
-      const Vec<D> vo = value + term[a][o];
+      const T wo = w * s_.w[a][o];
+      const V vo = value + term[a][o];
       if constexpr (a == 0)
         scatter(k, wo, vo);
       else
@@ -114,20 +115,20 @@ class TensorStencil {
   // sum = sum_o w_a(o) (the sum of the axes below), moment's first a + 1 columns likewise, column a
   // taking the factor dx_a(o).
   template <int a>
-  void gatherAxis(int index, const Vec<D>* field, Vec<D>& sum, Mat<D>& moment) const {
+  void gatherAxis(int index, const V* field, V& sum, M& moment) const {
     sum.setZero();
     moment.setZero();
 #pragma GCC unroll 4
     for (int o = 0; o < S; ++o) {
       const int k = index + o * stride_[a];
-      const Real w = s_.w[a][o];
+      const T w = s_.w[a][o];
       if constexpr (a == 0) {
-        const Vec<D>& v = field[k];
+        const V& v = field[k];
         sum += w * v;
         moment.col(0) += (w * dx_[0][o]) * v;
       } else {
-        Vec<D> inner_sum;
-        Mat<D> inner_moment;
+        V inner_sum;
+        M inner_moment;
         gatherAxis<a - 1>(k, field, inner_sum, inner_moment);
         sum += w * inner_sum;
         moment.template leftCols<a>() += w * inner_moment.template leftCols<a>();
@@ -136,18 +137,18 @@ class TensorStencil {
     }
   }
 
-  const Stencil<D, Kernel>& s_;
+  const Stencil<D, Kernel, T>& s_;
   int base_;
   int stride_[D];
-  Real dx_[D][S];  // x_i - x_p along each axis
+  T dx_[D][S];  // x_i - x_p along each axis
 };
 
 // Calls f(node_index, weight, weight_gradient) for every node of the particle's stencil.
-template <int D, class Kernel, class F>
-inline void forEachStencilNode(const GridGeometry<D>& grid, const Vec<D>& x, F&& f) {
-  const Real inv_h = 1 / grid.h;
-  const Stencil<D, Kernel> s(x, inv_h);
-  visitStencil(grid, s, x, [&](const StencilVisit<D>& v) {
+template <int D, class Kernel, class T, class F>
+inline void forEachStencilNode(const GridGeometry<D>& grid, const Vec<D, T>& x, F&& f) {
+  const T inv_h = T(1 / grid.h);
+  const Stencil<D, Kernel, T> s(x, inv_h);
+  visitStencil(grid, s, x, [&](const StencilVisit<D, T>& v) {
     f(v.index, s.weightAt(v.offset), s.gradientAt(v.offset, inv_h));
   });
 }

@@ -12,36 +12,37 @@
 
 namespace snowsim {
 
-template <int D>
-struct MpmParticles : Particles<D> {
-  std::vector<Mat<D>> F_E;  // elastic deformation gradient
-  std::vector<Mat<D>> R_E;  // its polar rotation, from the last return mapping
-  std::vector<Mat<D>> V_E;  // 3D: its right singular vectors, the next SVD's starting guess
-  std::vector<Real> J_P;    // det F_P, plastic volume ratio
-  std::vector<Mat<D>> C;    // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
-  std::vector<Lame> lame;   // hardened Lamé parameters (eq. 8), refreshed with J_P
+// T: the scalar of the state, double or float (mpm.precision).
+template <int D, class T = Real>
+struct MpmParticles : Particles<D, T> {
+  std::vector<Mat<D, T>> F_E;   // elastic deformation gradient
+  std::vector<Mat<D, T>> R_E;   // its polar rotation, from the last return mapping
+  std::vector<Mat<D, T>> V_E;   // 3D: its right singular vectors, the next SVD's starting guess
+  std::vector<T> J_P;           // det F_P, plastic volume ratio
+  std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
+  std::vector<LameOf<T>> lame;  // hardened Lamé parameters (eq. 8), refreshed with J_P
 
   // One array of each element type, for a reordering that gathers into a spare array and swaps.
-  using SpareArrays = std::tuple<std::vector<Vec<D>>, std::vector<Mat<D>>, std::vector<Real>,
-                                 std::vector<int>, std::vector<Lame>>;
+  using SpareArrays = std::tuple<std::vector<Vec<D, T>>, std::vector<Mat<D, T>>, std::vector<T>,
+                                 std::vector<int>, std::vector<LameOf<T>>>;
 
   MpmParticles() = default;
   // The snow starts unstrained: F_E = I, J_P = 1, no affine velocity.
-  MpmParticles(Particles<D> particles, const SnowMaterial& material)
-      : Particles<D>(std::move(particles)) {
+  MpmParticles(Particles<D, T> particles, const SnowMaterial& material)
+      : Particles<D, T>(std::move(particles)) {
     const int n = this->size();
-    F_E.assign(n, Mat<D>::Identity());
-    R_E.assign(n, Mat<D>::Identity());
-    if constexpr (D == 3) V_E.assign(n, Mat<D>::Identity());
+    F_E.assign(n, Mat<D, T>::Identity());
+    R_E.assign(n, Mat<D, T>::Identity());
+    if constexpr (D == 3) V_E.assign(n, Mat<D, T>::Identity());
     J_P.assign(n, 1);
-    C.assign(n, Mat<D>::Zero());
-    lame.assign(n, hardenedLame(material, 1));
+    C.assign(n, Mat<D, T>::Zero());
+    lame.assign(n, hardenedLame<T>(material, 1));
   }
 
   // Every array, empty ones included (V_E in 2D): a reordering skips those.
   template <class F>
   void forEachArray(F&& f) {
-    Particles<D>::forEachArray(f);
+    Particles<D, T>::forEachArray(f);
     f(F_E), f(R_E), f(V_E), f(J_P), f(C), f(lame);
   }
 };

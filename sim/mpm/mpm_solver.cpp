@@ -11,18 +11,50 @@
 
 namespace snowsim {
 
-template <int D>
-MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
+namespace {
+
+// The vectors of `from` in the scalar of `to`.
+template <class From, class To>
+void castEach(const std::vector<From>& from, std::vector<To>& to) {
+  to.resize(from.size());
+  for (size_t i = 0; i < from.size(); ++i) to[i] = from[i].template cast<typename To::Scalar>();
+}
+
+// The particles in the precision T of the solver's state.
+template <int D, class T>
+Particles<D, T> inPrecision(Particles<D> particles) {
+  if constexpr (std::is_same_v<T, Real>) {
+    return particles;
+  } else {
+    Particles<D, T> converted;
+    castEach(particles.x, converted.x);
+    castEach(particles.v, converted.v);
+    converted.mass.assign(particles.mass.begin(), particles.mass.end());
+    converted.volume.assign(particles.volume.begin(), particles.volume.end());
+    converted.density.assign(particles.density.begin(), particles.density.end());
+    converted.body = std::move(particles.body);
+    converted.id = std::move(particles.id);
+    return converted;
+  }
+}
+
+}  // namespace
+
+template <int D, class T>
+MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
     : params_(scene.mpm),
       material_(scene.material),
-      gravity_(sceneGravity<D>(scene)),
-      particles_(std::move(particles), scene.material),
+      gravity_(sceneGravity<D>(scene).template cast<T>()),
+      particles_(inPrecision<D, T>(std::move(particles)), scene.material),
       grid_(sceneGrid<D>(scene)),
-      inv_h_(1 / grid_.h),
-      inertia_inverse_(withKernel(params_.kernel,
-                                  [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); })),
+      inv_h_(T(1 / grid_.h)),
+      inertia_inverse_(T(withKernel(
+          params_.kernel, [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); }))),
       colliders_(makeColliders<D>(scene)),
       schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads) {
+  if (!double_precision && params_.integrator == MpmIntegrator::SemiImplicit)
+    throw InputError(scene.file +
+                     ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"");
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
@@ -37,8 +69,8 @@ MpmSolver<D>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
 }
 
 // One step, the paper's section 4 list; the stages run on the schedule's threads.
-template <int D>
-void MpmSolver<D>::advance(Real dt) {
+template <int D, class T>
+void MpmSolver<D, T>::advance(Real dt) {
   const Real stable_dt = semiImplicit() ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
@@ -46,14 +78,14 @@ void MpmSolver<D>::advance(Real dt) {
   }
   part_measures_.resize(schedule_.prepare());
   withTransferAndKernel(params_.transfer, params_.kernel,
-                        [&]<class Transfer, class Kernel>() { stepWith<Transfer, Kernel>(dt); });
+                        [&]<class Transfer, class Kernel>() { stepWith<Transfer, Kernel>(T(dt)); });
   collectMeasures();
   for (Collider<D>& c : colliders_) c.advance(dt);
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer, class Kernel>
-void MpmSolver<D>::stepWith(Real dt) {
+void MpmSolver<D, T>::stepWith(T dt) {
   const bool semi_implicit = semiImplicit();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
   // stages each meet on their own; the explicit stages share the team's threads.
@@ -75,9 +107,9 @@ void MpmSolver<D>::stepWith(Real dt) {
   });
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer, class Kernel>
-Real MpmSolver<D>::moveParticle(int p, PartMeasure& m, Real dt) {
+Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt) {
   gatherVelocity<Transfer, Kernel>(p);  // 8 (gathered first: 7 needs grad v)
   updateDeformation<Transfer>(p, dt);   // 7
   collideParticle(p);                   // 9
@@ -85,39 +117,38 @@ Real MpmSolver<D>::moveParticle(int p, PartMeasure& m, Real dt) {
   return measure(p, m);
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer, class Kernel>
-void MpmSolver<D>::scatterParticle(int p, PartialGrid& g, Real dt) const {
-  const Real inv_h = inv_h_;
-  const Vec<D>& x = particles_.x[p];
-  const Real m = particles_.mass[p];
-  const Vec<D> mv = m * particles_.v[p];
+void MpmSolver<D, T>::scatterParticle(int p, PartialGrid& g, T dt) const {
+  const T inv_h = inv_h_;
+  const V& x = particles_.x[p];
+  const T m = particles_.mass[p];
+  const V mv = m * particles_.v[p];
   // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (eq. 7), with the Kirchhoff stress
   // tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
-  const Real V0 = particles_.volume[p];
-  const Mat<D> stress =
-      V0 > 0 ? Mat<D>(-V0 * fixedCorotatedKirchhoff<D>(particles_.F_E[p], particles_.R_E[p],
-                                                       particles_.lame[p]))
-             : Mat<D>::Zero();
-  const Stencil<D, Kernel> s(x, inv_h);
+  const T V0 = particles_.volume[p];
+  const M stress = V0 > 0 ? M(-V0 * fixedCorotatedKirchhoff<D, T>(
+                                        particles_.F_E[p], particles_.R_E[p], particles_.lame[p]))
+                          : M::Zero();
+  const Stencil<D, Kernel, T> s(x, inv_h);
   if constexpr (Transfer::mls) {
     // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
     // receives w (m v_p + (m C_p + dt D^-1 (-V_p^0 tau_p)) (x_i - x_p)), the mass and momentum
     // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
-    const Mat<D> A = m * particles_.C[p] + (dt * inertia_inverse_) * stress;
-    TensorStencil<D, Kernel>(grid_, s, x)
-        .scatterAffine(mv, A, [&](int k, Real w, const Vec<D>& momentum) {
+    const M A = m * particles_.C[p] + (dt * inertia_inverse_) * stress;
+    TensorStencil<D, Kernel, T>(grid_, s, x)
+        .scatterAffine(mv, A, [&](int k, T w, const V& momentum) {
           g.mass[k] += w * m;
           g.momentum[k] += w * momentum;
         });
   } else {
-    const Mat<D> mC = m * particles_.C[p];
-    visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
+    const M mC = m * particles_.C[p];
+    visitStencil(grid_, s, x, [&](const StencilVisit<D, T>& node) {
       const int k = node.index;
-      const Real w = s.weightAt(node.offset);
+      const T w = s.weightAt(node.offset);
       g.mass[k] += w * m;
       // Momentum, eq. 1; APIC adds the affine part m C (x_i - x_p) (Jiang et al. 2015).
-      Vec<D> momentum = mv;
+      V momentum = mv;
       if constexpr (Transfer::affine) momentum.noalias() += mC * node.dx;
       g.momentum[k] += w * momentum;
       g.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
@@ -125,151 +156,175 @@ void MpmSolver<D>::scatterParticle(int p, PartialGrid& g, Real dt) const {
   }
 }
 
-template <int D>
+template <int D, class T>
 template <class Kernel>
-void MpmSolver<D>::estimateVolume(int p) {
+void MpmSolver<D, T>::estimateVolume(int p) {
   if (params_.initial_volume == InitialVolume::Lattice) {
     // Each particle carries its share of its body: V_p^0 = m_p / rho_body = spacing^D.
-    particles_.density[p] = body_density_[particles_.body[p]];
+    particles_.density[p] = T(body_density_[particles_.body[p]]);
     particles_.volume[p] = particles_.mass[p] / particles_.density[p];
     return;
   }
   // rho_p^0 = sum_i m_i w_ip / h^D, V_p^0 = m_p / rho_p^0 (paper section 4 step 2).
-  Real rho = 0;
+  T rho = 0;
   forEachStencilNode<D, Kernel>(grid_, particles_.x[p],
-                                [&](int k, Real w, const Vec<D>&) { rho += fields_.mass[k] * w; });
-  rho /= std::pow(grid_.h, D);
+                                [&](int k, T w, const V&) { rho += fields_.mass[k] * w; });
+  rho /= T(std::pow(grid_.h, D));
   particles_.density[p] = rho;
   particles_.volume[p] = particles_.mass[p] / rho;
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer>
-void MpmSolver<D>::velocityFromMomentum(int k) {
+void MpmSolver<D, T>::velocityFromMomentum(int k) {
   // Keeps the rasterised velocity for the FLIP increment.
-  const Real m = fields_.mass[k];
-  fields_.velocity[k] = m > 0 ? Vec<D>(fields_.velocity[k] / m) : Vec<D>::Zero();
+  const T m = fields_.mass[k];
+  fields_.velocity[k] = m > 0 ? V(fields_.velocity[k] / m) : V::Zero();
   if constexpr (!Transfer::affine) fields_.velocity_old[k] = fields_.velocity[k];
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer>
-void MpmSolver<D>::accelerate(int k, Real dt) {
-  const Real m = fields_.mass[k];
+void MpmSolver<D, T>::accelerate(int k, T dt) {
+  const T m = fields_.mass[k];
   if (m <= 0) return;
   fields_.velocity[k] += dt * gravity_;
   // MLS scattered dt f_i with the momentum: only gravity remains.
   if constexpr (!Transfer::mls) fields_.velocity[k] += (dt / m) * fields_.force[k];  // eq. 8
 }
 
-template <int D>
-void MpmSolver<D>::collideNode(int k) {
+template <int D, class T>
+void MpmSolver<D, T>::collideNode(int k) {
   if (fields_.mass[k] <= 0) return;
   const Vec<D> x = grid_.position(grid_.coords(k));
-  for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
-}
-
-template <int D>
-void MpmSolver<D>::solveImplicitVelocities(Real dt) {
-  // Section 9: grid collisions act on v* before the solve, which then holds what they fixed.
-  node_free_.resize(grid_.nodeCount());
-  schedule_.forActiveNodes(grid_, [&](int k) {
-    if (fields_.mass[k] > 0)
-      node_free_[k] =
-          collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
-  });
-  implicit_.prepare(grid_, fields_, particles_, particles_.F_E, particles_.lame, params_, dt,
-                    &schedule_);
-  last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
-                                params_.implicit_tolerance, params_.implicit_max_iterations);
-  solves_.add(last_solve_);
-  if (!std::isfinite(last_solve_.residual)) {
-    std::ostringstream s;
-    s << "semi-implicit MPM solve failed at step " << this->steps() << " (t = " << this->time()
-      << " s): non-finite residual after " << last_solve_.iterations << " iterations; dt = " << dt
-      << " s";
-    throw SimulationError(s.str());
+  if constexpr (double_precision) {
+    for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
+  } else {  // the colliders work in double
+    Vec<D> v = fields_.velocity[k].template cast<Real>();
+    for (const Collider<D>& c : colliders_) c.collide(x, v);
+    fields_.velocity[k] = v.template cast<T>();
   }
 }
 
-template <int D>
+template <int D, class T>
+void MpmSolver<D, T>::solveImplicitVelocities(Real dt) {
+  // Section 9: grid collisions act on v* before the solve, which then holds what they fixed.
+  // Double only (the constructor turns a float semi-implicit scene away).
+  if constexpr (double_precision) {
+    node_free_.resize(grid_.nodeCount());
+    schedule_.forActiveNodes(grid_, [&](int k) {
+      if (fields_.mass[k] > 0)
+        node_free_[k] =
+            collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
+    });
+    implicit_.prepare(grid_, fields_, particles_, particles_.F_E, particles_.lame, params_, dt,
+                      &schedule_);
+    last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
+                                  params_.implicit_tolerance, params_.implicit_max_iterations);
+    solves_.add(last_solve_);
+    if (!std::isfinite(last_solve_.residual)) {
+      std::ostringstream s;
+      s << "semi-implicit MPM solve failed at step " << this->steps() << " (t = " << this->time()
+        << " s): non-finite residual after " << last_solve_.iterations << " iterations; dt = " << dt
+        << " s";
+      throw SimulationError(s.str());
+    }
+  }
+}
+
+template <int D, class T>
 template <class Transfer, class Kernel>
-void MpmSolver<D>::gatherVelocity(int p) {
-  const Real inv_h = inv_h_;
-  const Vec<D> x = particles_.x[p];
-  const Stencil<D, Kernel> s(x, inv_h);
+void MpmSolver<D, T>::gatherVelocity(int p) {
+  const T inv_h = inv_h_;
+  const V x = particles_.x[p];
+  const Stencil<D, Kernel, T> s(x, inv_h);
   if constexpr (Transfer::affine) {
     // v_p = sum_i w v_i, B_p = sum_i w v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10),
     // C_p = B_p D_p^-1, also grad v_p for MLS (Hu et al. 2018).
-    Mat<D> B;
+    M B;
     particles_.v[p] =
-        TensorStencil<D, Kernel>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
+        TensorStencil<D, Kernel, T>(grid_, s, x).gatherAffine(fields_.velocity.data(), B);
     particles_.C[p] = inertia_inverse_ * B;
   } else {
-    Vec<D> v_pic = Vec<D>::Zero(), dv = Vec<D>::Zero();
-    Mat<D> grad_v = Mat<D>::Zero();
-    visitStencil(grid_, s, x, [&](const StencilVisit<D>& node) {
-      const Real w = s.weightAt(node.offset);
-      const Vec<D>& vi = fields_.velocity[node.index];
+    V v_pic = V::Zero(), dv = V::Zero();
+    M grad_v = M::Zero();
+    visitStencil(grid_, s, x, [&](const StencilVisit<D, T>& node) {
+      const T w = s.weightAt(node.offset);
+      const V& vi = fields_.velocity[node.index];
       v_pic += w * vi;
       dv += w * (vi - fields_.velocity_old[node.index]);
       grad_v += vi * s.gradientAt(node.offset, inv_h).transpose();  // grad v_p, eq. 10
     });
-    particles_.v[p] = picFlipBlend(particles_.v[p], v_pic, dv, params_.flip_alpha);
+    particles_.v[p] = picFlipBlend<D, T>(particles_.v[p], v_pic, dv, T(params_.flip_alpha));
     particles_.C[p] = grad_v;
   }
 }
 
-template <int D>
+template <int D, class T>
 template <class Transfer>
-void MpmSolver<D>::updateDeformation(int p, Real dt) {
+void MpmSolver<D, T>::updateDeformation(int p, T dt) {
   // For PIC/FLIP C holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
-  Mat<D>& F_E = particles_.F_E[p];
-  F_E = (Mat<D>::Identity() + dt * particles_.C[p]) * F_E;  // eq. 10, F_E^trial
-  Real& J_P = particles_.J_P[p];
+  M& F_E = particles_.F_E[p];
+  F_E = (M::Identity() + dt * particles_.C[p]) * F_E;  // eq. 10, F_E^trial
+  T& J_P = particles_.J_P[p];
+  const T J_P_before = J_P;
   if constexpr (D == 2)
     J_P = plasticReturnMappingJ(material_, F_E, J_P, particles_.R_E[p]);  // eqs. 11-12
   else
     J_P = plasticReturnMappingJ(material_, F_E, J_P, particles_.R_E[p], particles_.V_E[p]);
-  particles_.lame[p] = hardenedLame(material_, J_P);
+  // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp there.
+  if (J_P != J_P_before) particles_.lame[p] = hardenedLame<T>(material_, J_P);
   // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
   if constexpr (!Transfer::affine) particles_.C[p].setZero();
 }
 
-template <int D>
-void MpmSolver<D>::collideParticle(int p) {
-  for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
+template <int D, class T>
+void MpmSolver<D, T>::collideParticle(int p) {
+  if constexpr (double_precision) {
+    for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
+  } else {  // the colliders work in double
+    const Vec<D> x = particles_.x[p].template cast<Real>();
+    Vec<D> v = particles_.v[p].template cast<Real>();
+    for (const Collider<D>& c : colliders_) c.collide(x, v);
+    particles_.v[p] = v.template cast<T>();
+  }
 }
 
-template <int D>
-void MpmSolver<D>::advect(int p, Real dt) {
-  Vec<D>& x = particles_.x[p];
+template <int D, class T>
+void MpmSolver<D, T>::advect(int p, T dt) {
+  V& x = particles_.x[p];
   x += dt * particles_.v[p];
-  for (const Collider<D>& c : colliders_) c.pushOut(x);
-  x = x.cwiseMax(Vec<D>::Zero()).cwiseMin(grid_.extent());  // never leave the domain
+  if constexpr (double_precision) {
+    for (const Collider<D>& c : colliders_) c.pushOut(x);
+  } else {
+    Vec<D> x_double = x.template cast<Real>();
+    for (const Collider<D>& c : colliders_) c.pushOut(x_double);
+    x = x_double.template cast<T>();
+  }
+  x = x.cwiseMax(V::Zero()).cwiseMin(grid_.extent().template cast<T>());  // never leave the domain
 }
 
-template <int D>
-Real MpmSolver<D>::measure(int p, PartMeasure& m) const {
-  const Real v = particles_.v[p].norm();
+template <int D, class T>
+Real MpmSolver<D, T>::measure(int p, PartMeasure& m) const {
+  const T v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
-  m.speed = std::max(m.speed, v);
-  m.signal = std::max(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
+  m.speed = std::max<Real>(m.speed, v);
+  m.signal = std::max<Real>(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
-         (Real(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
+         (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
 }
 
-template <int D>
-void MpmSolver<D>::measureParticles() {
+template <int D, class T>
+void MpmSolver<D, T>::measureParticles() {
   part_measures_.resize(schedule_.prepare());
   schedule_.passOverParticles("measure particles", particles_.x, part_measures_,
                               [&](int p, PartMeasure& m) { return measure(p, m); });
   collectMeasures();
 }
 
-template <int D>
-void MpmSolver<D>::collectMeasures() {
+template <int D, class T>
+void MpmSolver<D, T>::collectMeasures() {
   schedule_.passDone();
   fastest_speed_ = fastest_signal_ = 0;
   finite_ = true;
@@ -284,23 +339,23 @@ void MpmSolver<D>::collectMeasures() {
   energy_ = schedule_.orderedSum() - total_mass_ * lowest;
 }
 
-template <int D>
-void MpmSolver<D>::beforeFirstStep() {
+template <int D, class T>
+void MpmSolver<D, T>::beforeFirstStep() {
   // The state as the first step finds it (a caller may have set velocities since construction).
   measureParticles();
   initial_energy_ = energy_;
 }
 
-template <int D>
-void MpmSolver<D>::scatter(Real dt) {
+template <int D, class T>
+void MpmSolver<D, T>::scatter(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
     schedule_.scatterAlone(
         particles_.x, [&](int p, PartialGrid& g) { scatterParticle<Transfer, Kernel>(p, g, dt); });
   });
 }
 
-template <int D>
-void MpmSolver<D>::updateGridVelocities(Real dt) {
+template <int D, class T>
+void MpmSolver<D, T>::updateGridVelocities(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class>() {
     schedule_.updateNodes(fields_, [&](int k) {
       velocityFromMomentum<Transfer>(k);
@@ -310,8 +365,8 @@ void MpmSolver<D>::updateGridVelocities(Real dt) {
   schedule_.gridStageDone();
 }
 
-template <int D>
-void MpmSolver<D>::updateParticles(Real dt) {
+template <int D, class T>
+void MpmSolver<D, T>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
     schedule_.passOverParticles(
@@ -321,34 +376,35 @@ void MpmSolver<D>::updateParticles(Real dt) {
   collectMeasures();
 }
 
-template <int D>
-Real MpmSolver<D>::cflTimeStep() const {
+template <int D, class T>
+Real MpmSolver<D, T>::cflTimeStep() const {
   // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md).
   return fastest_signal_ > 0 ? params_.cfl * grid_.h / fastest_signal_
                              : std::numeric_limits<Real>::infinity();
 }
 
-template <int D>
-Real MpmSolver<D>::advectionTimeStep() const {
+template <int D, class T>
+Real MpmSolver<D, T>::advectionTimeStep() const {
   // The semi-implicit step has no elastic wave limit, only advection: dt <= C h / |v|max.
   return fastest_speed_ > 0 ? params_.cfl * grid_.h / fastest_speed_
                             : std::numeric_limits<Real>::infinity();
 }
 
-template <int D>
-Real MpmSolver<D>::stableTimeStep() const {
+template <int D, class T>
+Real MpmSolver<D, T>::stableTimeStep() const {
   if (!params_.adaptive_dt) return std::numeric_limits<Real>::infinity();
   return semiImplicit() ? advectionTimeStep() : cflTimeStep();
 }
 
-template <int D>
-StepLimit MpmSolver<D>::stepLimit() const {
+template <int D, class T>
+StepLimit MpmSolver<D, T>::stepLimit() const {
   // The particle of the largest signal speed: c_p + |v_p| for the CFL step, |v_p| semi-implicit.
   StepLimit limit{stableTimeStep()};
   Real largest = -1;
   for (int p = 0; p < particles_.size(); ++p) {
     const Real speed = particles_.v[p].norm();
-    const Real wave = semiImplicit() ? 0 : pWaveSpeed(particles_.lame[p], particles_.density[p]);
+    const Real wave =
+        semiImplicit() ? 0 : Real(pWaveSpeed<T>(particles_.lame[p], particles_.density[p]));
     if (speed + wave <= largest) continue;
     largest = speed + wave;
     limit.particle_speed = speed;
@@ -359,8 +415,8 @@ StepLimit MpmSolver<D>::stepLimit() const {
   return limit;
 }
 
-template <int D>
-void MpmSolver<D>::checkDivergence(Real dt) const {
+template <int D, class T>
+void MpmSolver<D, T>::checkDivergence(Real dt) const {
   // An explicit step beyond its limit grows exponentially; a particle crossing more than a cell
   // per step or a non-finite velocity is where we stop it.
   // The snow starts unstrained and plasticity, friction and the transfers only dissipate, so
@@ -389,13 +445,13 @@ void MpmSolver<D>::checkDivergence(Real dt) const {
   throw SimulationError(s.str());
 }
 
-template <int D>
-void MpmSolver<D>::describe(Snapshot& snapshot) const {
+template <int D, class T>
+void MpmSolver<D, T>::describe(Snapshot& snapshot) const {
   const int n = particles_.size();
   snapshot.density.resize(n);
   snapshot.plastic_j.resize(n);
   for (int p = 0; p < n; ++p) {  // in creation order, as the snapshot's positions
-    const Real J = particles_.F_E[p].determinant() * particles_.J_P[p];
+    const T J = particles_.F_E[p].determinant() * particles_.J_P[p];
     const int id = particles_.id[p];
     snapshot.density[id] = static_cast<float>(particles_.mass[p] / (particles_.volume[p] * J));
     snapshot.plastic_j[id] = static_cast<float>(particles_.J_P[p]);
@@ -405,7 +461,28 @@ void MpmSolver<D>::describe(Snapshot& snapshot) const {
       grid_, [&](int k) { return fields_.mass[k] / area; }, snapshot.grid.node_density);
 }
 
-template class MpmSolver<2>;
-template class MpmSolver<3>;
+template <int D, class T>
+const Particles<D>& MpmSolver<D, T>::particles() const {
+  if constexpr (double_precision) {
+    return particles_;
+  } else {
+    if (converted_at_step_ == this->steps()) return particles_in_double_;
+    converted_at_step_ = this->steps();
+    Particles<D>& out = particles_in_double_;
+    castEach(particles_.x, out.x);
+    castEach(particles_.v, out.v);
+    out.mass.assign(particles_.mass.begin(), particles_.mass.end());
+    out.volume.assign(particles_.volume.begin(), particles_.volume.end());
+    out.density.assign(particles_.density.begin(), particles_.density.end());
+    out.body = particles_.body;
+    out.id = particles_.id;
+    return out;
+  }
+}
+
+template class MpmSolver<2, double>;
+template class MpmSolver<3, double>;
+template class MpmSolver<2, float>;
+template class MpmSolver<3, float>;
 
 }  // namespace snowsim

@@ -2,10 +2,13 @@
 // Simulation"), explicit symplectic Euler or the paper's semi-implicit solve, PIC/FLIP, APIC or
 // MLS-MPM transfers, quadratic or cubic B-splines. step() is the paper's section 4 list of
 // stages; each stage is a per-particle or per-node function below, and how they run over threads
-// (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/).
+// (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/). The state
+// and the arithmetic of the explicit step are in the precision T, double or float
+// (mpm.precision); what the solver hands out is in double.
 #pragma once
 
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "sim/core/collider.h"
@@ -19,26 +22,29 @@
 
 namespace snowsim {
 
-template <int D>
+template <int D, class T = Real>
 class MpmSolver final : public Solver<D> {
  public:
+  static constexpr bool double_precision = std::is_same_v<T, Real>;
+
   // threads: how many threads a step may use; 0 takes the OpenMP default (OMP_NUM_THREADS, else
-  // every core).
+  // every core). A float solver runs the explicit integrator only.
   MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0);
 
   Real stableTimeStep() const override;
   StepLimit stepLimit() const override;
   std::vector<StageSeconds> stageSeconds() const override { return schedule_.stageSeconds(); }
-  const Particles<D>& particles() const override { return particles_; }
+  // In double: a float solver's particles converted, once per step that asks for them.
+  const Particles<D>& particles() const override;
   void describe(Snapshot& snapshot) const override;
   SolveTally implicitSolves() const override { return solves_; }
 
   const GridGeometry<D>& grid() const { return grid_; }
-  const GridFields<D>& fields() const { return fields_; }
-  const std::vector<Mat<D>>& elasticGradient() const { return particles_.F_E; }
-  const std::vector<Real>& plasticJ() const { return particles_.J_P; }
-  const std::vector<Mat<D>>& affine() const { return particles_.C; }
-  Lame lame(int p) const { return particles_.lame[p]; }
+  const GridFields<D, T>& fields() const { return fields_; }
+  const std::vector<Mat<D, T>>& elasticGradient() const { return particles_.F_E; }
+  const std::vector<T>& plasticJ() const { return particles_.J_P; }
+  const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
+  LameOf<T> lame(int p) const { return particles_.lame[p]; }
   const SnowMaterial& material() const { return material_; }
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
   const MpmParams& params() const { return params_; }
@@ -65,20 +71,24 @@ class MpmSolver final : public Solver<D> {
   void updateParticles(Real dt);
 
  private:
-  using Schedule = ParticleGridSchedule<D, MpmParticles<D>>;
+  using V = Vec<D, T>;
+  using M = Mat<D, T>;
+  using Schedule = ParticleGridSchedule<D, MpmParticles<D, T>>;
   using PartialGrid = typename Schedule::PartialGrid;
 
-  bool semiImplicit() const { return params_.integrator == MpmIntegrator::SemiImplicit; }
+  bool semiImplicit() const {
+    return double_precision && params_.integrator == MpmIntegrator::SemiImplicit;
+  }
   void beforeFirstStep() override;
   void advance(Real dt) override;
   void checkDivergence(Real dt) const override;
   template <class Transfer, class Kernel>
-  void stepWith(Real dt);
+  void stepWith(T dt);
 
   // Per particle p, in the paper's order.
   // 1 + 3. Mass and momentum (eq. 1) and the force (eq. 7) of one particle into a partial grid.
   template <class Transfer, class Kernel>
-  void scatterParticle(int p, PartialGrid& g, Real dt) const;
+  void scatterParticle(int p, PartialGrid& g, T dt) const;
   // 2. First step only: rho_p^0 and V_p^0 from the grid (section 4 step 2).
   template <class Kernel>
   void estimateVolume(int p);
@@ -87,16 +97,16 @@ class MpmSolver final : public Solver<D> {
   void gatherVelocity(int p);
   // 7. F_E <- (I + dt grad v) F_E (eq. 10), then plasticity (eqs. 11-12) and hardening (eq. 8).
   template <class Transfer>
-  void updateDeformation(int p, Real dt);
+  void updateDeformation(int p, T dt);
   void collideParticle(int p);  // 9. particle-based body collisions (section 8)
-  void advect(int p, Real dt);  // 10. x += dt v, kept out of colliders and in the domain
+  void advect(int p, T dt);     // 10. x += dt v, kept out of colliders and in the domain
 
   // Per grid node k, after the scatter.
   template <class Transfer>
   void velocityFromMomentum(int k);  // 4. v_i = momentum / m_i
   template <class Transfer>
-  void accelerate(int k, Real dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void collideNode(int k);          // 5. grid-based body collisions (section 8)
+  void accelerate(int k, T dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
+  void collideNode(int k);       // 5. grid-based body collisions (section 8)
 
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -109,7 +119,7 @@ class MpmSolver final : public Solver<D> {
   };
   // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
   template <class Transfer, class Kernel>
-  Real moveParticle(int p, PartMeasure& m, Real dt);
+  Real moveParticle(int p, PartMeasure& m, T dt);
   // Measures particle p into its part's maxima and returns its energy.
   Real measure(int p, PartMeasure& m) const;
   void measureParticles();  // the speeds and energy of the current state
@@ -117,12 +127,12 @@ class MpmSolver final : public Solver<D> {
 
   MpmParams params_;
   SnowMaterial material_;
-  Vec<D> gravity_;
-  MpmParticles<D> particles_;
+  V gravity_;
+  MpmParticles<D, T> particles_;
   GridGeometry<D> grid_;
-  Real inv_h_;            // 1 / h
-  Real inertia_inverse_;  // D_p^-1 of APIC for the scene's kernel (transfer_scheme.h)
-  GridFields<D> fields_;
+  T inv_h_;            // 1 / h
+  T inertia_inverse_;  // D_p^-1 of APIC for the scene's kernel (transfer_scheme.h)
+  GridFields<D, T> fields_;
   std::vector<Collider<D>> colliders_;
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;
@@ -143,6 +153,9 @@ class MpmSolver final : public Solver<D> {
   // at fixed dt (docs/mpm.md): stable steps keep it within 0.1%, a step 1.6x beyond the stable one
   // grows it 7.5% as the ball flies apart, 1.8x doubles it.
   static constexpr Real kEnergyGrowthLimit = 1.05;
+  // A float solver's particles in double, and the step they were converted at.
+  mutable Particles<D> particles_in_double_;
+  mutable long converted_at_step_ = -1;
   // The stable dt at the first step a fixed dt exceeded it, before the blow-up inflated the speeds
   // (what the blow-up message recommends), and that step.
   Real limit_when_exceeded_ = std::numeric_limits<Real>::infinity();

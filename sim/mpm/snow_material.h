@@ -3,6 +3,8 @@
 // mapping that clamps the singular values of the elastic deformation gradient. Pure functions.
 #pragma once
 
+#include <type_traits>
+
 #include "sim/core/math.h"
 
 namespace snowsim {
@@ -21,38 +23,53 @@ struct SnowMaterial {
 };
 
 // Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 e^{xi (1 - J_P)}, same for
-// lambda).
-struct Lame {
-  Real mu;
-  Real lambda;
+// lambda), in the precision T of the particle's state.
+template <class T>
+struct LameOf {
+  T mu;
+  T lambda;
 };
-Lame hardenedLame(const SnowMaterial& m, Real J_P);
+using Lame = LameOf<Real>;
+template <class T = Real>
+LameOf<T> hardenedLame(const SnowMaterial& m, std::type_identity_t<T> J_P);
+
+// The functions below compute in the scalar T: double unless asked for, or float for a state kept
+// in single precision (mpm.precision); the material's parameters are rounded to T. Their matrix
+// arguments do not deduce T, so expressions convert as before.
+template <int D, class T>
+using MatArg = std::type_identity_t<Mat<D, T>>;
 
 // Polar decomposition F = R S with R a rotation (det R = +1), S symmetric.
 // 2x2: closed form; 3x3: from the SVD.
-template <int D>
-Mat<D> polarRotation(const Mat<D>& F);
+template <int D, class T = Real>
+Mat<D, T> polarRotation(const MatArg<D, T>& F);
 
 // Singular value decomposition F = U diag(sigma) V^T with U, V rotations (det = +1); a negative
 // determinant of F shows up as a negative last singular value.
-template <int D>
-void signedSvd(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
+template <int D, class T = Real>
+void signedSvd(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>& V);
 // Same, with V on entry a guess of the result (a rotation, e.g. the last step's V): F^T F in that
 // basis is nearly diagonal, so the 3x3 solve needs a few Jacobi rotations instead of a full
 // eigen-decomposition. The result is the same to round-off whatever the guess.
-template <int D>
-void signedSvdFrom(const Mat<D>& F, Mat<D>& U, Vec<D>& sigma, Mat<D>& V);
+template <int D, class T = Real>
+void signedSvdFrom(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>& V);
 
 // Fixed-corotated first Piola-Kirchhoff stress (paper eq. 6 differentiated):
 // P = dPsi/dF_E = 2 mu (F_E - R_E) + lambda (J_E - 1) J_E F_E^{-T}.
-template <int D>
-Mat<D> fixedCorotatedPiola(const Mat<D>& F_E, const Lame& lame);
+template <int D, class T = Real>
+Mat<D, T> fixedCorotatedPiola(const MatArg<D, T>& F_E, const LameOf<T>& lame);
 
 // The Kirchhoff stress P F_E^T = 2 mu (F_E - R_E) F_E^T + lambda (J_E - 1) J_E I, which is what the
 // grid force sum needs (f_i = -sum_p V_p^0 P_p F_E^T grad w_ip, paper eq. 7) and is free of F^{-T}.
-// R_E is the polar rotation of F_E (polarRotation, or kept from the return mapping).
-template <int D>
-Mat<D> fixedCorotatedKirchhoff(const Mat<D>& F_E, const Mat<D>& R_E, const Lame& lame);
+// R_E is the polar rotation of F_E (polarRotation, or kept from the return mapping). Inline: the
+// scatter computes it for every particle.
+template <int D, class T = Real>
+inline Mat<D, T> fixedCorotatedKirchhoff(const MatArg<D, T>& F_E, const MatArg<D, T>& R_E,
+                                         const LameOf<T>& lame) {
+  const T J = F_E.determinant();
+  return 2 * lame.mu * (F_E - R_E) * F_E.transpose() +
+         lame.lambda * (J - 1) * J * Mat<D, T>::Identity();
+}
 
 // Plastic return mapping (paper section 5, eqs. 9-11): F = F_E F_P with F_E the trial elastic
 // gradient; clamps the singular values of F_E to [1 - theta_c, 1 + theta_s], moves the rest into
@@ -67,11 +84,16 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
 // finds the polar rotation by Newton's iteration and needs an SVD only when a singular value
 // leaves its bounds; V_E holds the right singular vectors of the last SVD, the next one's starting
 // guess.
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<2>& F_E, Real J_P, Mat<2>& R_E);
-Real plasticReturnMappingJ(const SnowMaterial& m, Mat<3>& F_E, Real J_P, Mat<3>& R_E, Mat<3>& V_E);
+template <class T>
+T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identity_t<T> J_P,
+                        Mat<2, T>& R_E);
+template <class T>
+T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
+                        Mat<3, T>& R_E, Mat<3, T>& V_E);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
-inline Real pWaveSpeed(const Lame& lame, Real rho) {
+template <class T>
+inline T pWaveSpeed(const LameOf<T>& lame, T rho) {
   return std::sqrt((lame.lambda + 2 * lame.mu) / rho);
 }
 

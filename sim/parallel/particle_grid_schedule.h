@@ -37,20 +37,24 @@ constexpr int tupleIndex(std::tuple<Ts...>*) {
   return found;
 }
 
-// P: the particle container, with positions x, forEachArray(f) over every per-particle array,
-// and SpareArrays, a tuple of one std::vector of each element type those arrays have.
+// P: the particle container, with its scalar type Scalar (the precision of the partial grids),
+// positions x, forEachArray(f) over every per-particle array, and SpareArrays, a tuple of one
+// std::vector of each element type those arrays have.
 template <int D, class P>
 class ParticleGridSchedule final : public LoopRunner {
  public:
   using Binning = RowBinning<D>;
+  using Scalar = typename P::Scalar;
+  using Position = Vec<D, Scalar>;
+  using Fields = GridFields<D, Scalar>;
   static constexpr int drift_cells = Binning::drift_cells;
 
   // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
   template <class T>
   using ZeroPageVector = std::vector<T, ZeroPageAllocator<T>>;
   struct PartialGrid {
-    ZeroPageVector<Real> mass;
-    ZeroPageVector<Vec<D>> momentum, force;  // force stays empty when the physics has none
+    ZeroPageVector<Scalar> mass;
+    ZeroPageVector<Position> momentum, force;  // force stays empty when the physics has none
   };
 
   // particles: how many the step moves; force_field: whether the scatter writes a force per node
@@ -91,9 +95,9 @@ class ParticleGridSchedule final : public LoopRunner {
   template <class F>
   void scatter(F&& f);
   template <class F>
-  void updateNodes(GridFields<D>& fields, F&& f);
+  void updateNodes(Fields& fields, F&& f);
   template <class Measure, class F>
-  void passOverParticles(std::string_view stage, const std::vector<Vec<D>>& x,
+  void passOverParticles(std::string_view stage, const std::vector<Position>& x,
                          std::vector<Measure>& measures, F&& f);
   Real orderedSum() const;
   // After each particle pass: the next cut of the work, and whether the next step must bin.
@@ -102,7 +106,7 @@ class ParticleGridSchedule final : public LoopRunner {
   // The stages run alone, outside step(): a scatter binned anew, which drops any scatter no grid
   // stage summed, and the end of a grid stage.
   template <class F>
-  void scatterAlone(const std::vector<Vec<D>>& x, F&& f);
+  void scatterAlone(const std::vector<Position>& x, F&& f);
   void gridStageDone();
 
   // f(k) for every node of the active box: independent items, in parallel for large scenes. The
@@ -140,7 +144,7 @@ class ParticleGridSchedule final : public LoopRunner {
   void storeInSortedOrder(P& particles);
   // Zero over the updated nodes: only a scatter no grid stage followed needs it.
   void emptyPartialGrids();
-  void sumPartialGrids(int k, GridFields<D>& fields);
+  void sumPartialGrids(int k, Fields& fields);
   // The chunks of the sorted order that part `part`'s particle pass takes, [first, last).
   std::pair<int, int> passChunks(int part) const;
   int chunkStart(int c) const { return std::min(particles_, c * chunk); }
@@ -215,7 +219,7 @@ void ParticleGridSchedule<D, P>::scatter(F&& f) {
 
 template <int D, class P>
 template <class F>
-void ParticleGridSchedule<D, P>::scatterAlone(const std::vector<Vec<D>>& x, F&& f) {
+void ParticleGridSchedule<D, P>::scatterAlone(const std::vector<Position>& x, F&& f) {
   binning_.bin(team_, particle_shares_, x);
   if (unsummed_scatter_) emptyPartialGrids();
   scatter(f);
@@ -224,7 +228,7 @@ void ParticleGridSchedule<D, P>::scatterAlone(const std::vector<Vec<D>>& x, F&& 
 
 template <int D, class P>
 template <class F>
-void ParticleGridSchedule<D, P>::updateNodes(GridFields<D>& fields, F&& f) {
+void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
   const NodeBox<D>& box = binning_.updated();
   // A part takes a run of consecutive lines of nodes along x, about those its thread scattered
   // to, still in its cache. The lines are cut by this stage's own measured speeds, not at the
@@ -249,7 +253,7 @@ void ParticleGridSchedule<D, P>::updateNodes(GridFields<D>& fields, F&& f) {
 template <int D, class P>
 template <class Measure, class F>
 void ParticleGridSchedule<D, P>::passOverParticles(std::string_view stage,
-                                                   const std::vector<Vec<D>>& x,
+                                                   const std::vector<Position>& x,
                                                    std::vector<Measure>& measures, F&& f) {
   // The particles in the scatter's order, cut at the parts' shares: a thread moves the particles
   // it scattered and stored, still in its cache.
@@ -394,18 +398,18 @@ inline void ParticleGridSchedule<D, P>::emptyPartialGrids() {
   for (int line = 0, lines = box.count() / width; line < lines; ++line) {
     const int first = box.flatIndex(grid_, line * width);
     for (PartialGrid& g : partial_) {
-      std::fill_n(g.mass.begin() + first, width, Real(0));
-      std::fill_n(g.momentum.begin() + first, width, Vec<D>::Zero());
-      if (!g.force.empty()) std::fill_n(g.force.begin() + first, width, Vec<D>::Zero());
+      std::fill_n(g.mass.begin() + first, width, Scalar(0));
+      std::fill_n(g.momentum.begin() + first, width, Position::Zero());
+      if (!g.force.empty()) std::fill_n(g.force.begin() + first, width, Position::Zero());
     }
   }
 }
 
 template <int D, class P>
-inline void ParticleGridSchedule<D, P>::sumPartialGrids(int k, GridFields<D>& fields) {
+inline void ParticleGridSchedule<D, P>::sumPartialGrids(int k, Fields& fields) {
   const bool forces = !partial_[0].force.empty();
-  Real mass = 0;
-  Vec<D> momentum = Vec<D>::Zero(), force = Vec<D>::Zero();
+  Scalar mass = 0;
+  Position momentum = Position::Zero(), force = Position::Zero();
   for (PartialGrid& g : partial_) {  // in colour order: the same sum on any thread count
     mass += g.mass[k];
     momentum += g.momentum[k];

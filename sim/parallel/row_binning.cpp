@@ -29,10 +29,11 @@ void RowBinning<D>::setParts(int parts) {
 }
 
 template <int D>
-void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<Vec<D>>& x) {
+template <class T>
+void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<Vec<D, T>>& x) {
   const int n = particles_;
   const int rows = this->rows();
-  const Real inv_h = 1 / grid_.h;
+  const T inv_h = T(1 / grid_.h);
   const auto countsOf = [&](int range) {
     return &range_count_[static_cast<size_t>(range) * block_count_];
   };
@@ -198,5 +199,9 @@ typename RowBinning<D>::RowCells RowBinning<D>::rowCellsAt(int o) const {
 
 template class RowBinning<2>;
 template class RowBinning<3>;
+template void RowBinning<2>::bin(Team&, const WorkShares&, const std::vector<Vec<2, double>>&);
+template void RowBinning<3>::bin(Team&, const WorkShares&, const std::vector<Vec<3, double>>&);
+template void RowBinning<2>::bin(Team&, const WorkShares&, const std::vector<Vec<2, float>>&);
+template void RowBinning<3>::bin(Team&, const WorkShares&, const std::vector<Vec<3, float>>&);
 
 }  // namespace snowsim

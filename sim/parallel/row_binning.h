@@ -37,8 +37,10 @@ class RowBinning {
   void setParts(int parts);
   // Bins the particles at x as two stages of the team, part r counting and placing the indices
   // shares.start(r) .. start(r + 1): a stable sort, whose result does not depend on the split.
-  // Then rows are split among the parts by the shares, and the active nodes found.
-  void bin(Team& team, const WorkShares& shares, const std::vector<Vec<D>>& x);
+  // Then rows are split among the parts by the shares, and the active nodes found. T: the
+  // precision of the positions, in which the kernels find their cells.
+  template <class T>
+  void bin(Team& team, const WorkShares& shares, const std::vector<Vec<D, T>>& x);
   // The rows split among the parts anew by the shares, the binning kept.
   void splitRows(const WorkShares& shares);
   bool mustBin() const { return must_bin_ || drift_cells == 0; }
@@ -66,12 +68,13 @@ class RowBinning {
   RowCells rowCellsAt(int o) const;
   // Whether the particle at sorted place o, now at x, is within its row's cells; `row` follows a
   // pass in sorted order from row to row.
-  bool withinRowCells(int o, const Vec<D>& x, RowCells& row) const {
+  template <class T>
+  bool withinRowCells(int o, const Vec<D, T>& x, RowCells& row) const {
     if (o >= row.end) row = rowCellsAt(o);
     // The cell as bin() computes it, floor(x / h), within [lo, hi): no branch per axis.
     bool within = true;
     for (int a = 0; a < D; ++a) {
-      const Real cell = x[a] * row.inv_h;
+      const T cell = x[a] * T(row.inv_h);
       within &= (cell >= row.lo[a]) & (cell < row.hi[a]);
     }
     return within;

@@ -168,6 +168,13 @@ MpmParams parseMpm(const Json* j, const std::string& file) {
   p.initial_volume = f.choice("initial_volume", {"lattice", "grid_density"}, "lattice") == "lattice"
                          ? InitialVolume::Lattice
                          : InitialVolume::GridDensity;
+  p.precision = f.choice("precision", {"double", "float"}, "double") == "double"
+                    ? MpmPrecision::Double
+                    : MpmPrecision::Float;
+  if (p.precision == MpmPrecision::Float && p.integrator == MpmIntegrator::SemiImplicit)
+    throw InputError(file +
+                     ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"; "
+                     "set mpm.precision to \"double\" for the semi-implicit integrator");
   if (const Json* walls = f.object("walls", false)) {
     JsonFields w(*walls, "mpm.walls", file);
     p.wall_type = parseColliderType(w, "type", "separating");

@@ -51,6 +51,8 @@ enum class MpmIntegrator { Explicit, SemiImplicit };
 // paper's estimate m_p / rho_p^0 with rho_p^0 rasterised to the grid (section 4 step 2), which
 // overestimates the volume of particles near a free surface (docs/mpm.md).
 enum class InitialVolume { Lattice, GridDensity };
+// The precision of the MPM state and its step's arithmetic (docs/performance.md weighs them).
+enum class MpmPrecision { Double, Float };
 enum class ColliderType { Sticky, Slip, Separating };
 enum class ColliderShape { HalfSpace, Sphere, Box };
 
@@ -65,6 +67,7 @@ struct MpmParams {
   double cfl = 0.9;         // C of dt <= C h / (c + |v|max); the measured limit is 2.5-4x C = 0.5
   bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
   InitialVolume initial_volume = InitialVolume::Lattice;
+  MpmPrecision precision = MpmPrecision::Double;      // float: explicit integrator only
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
 };

@@ -46,6 +46,7 @@ Json mpmJson(const MpmParams& p) {
       {"flip_alpha", p.flip_alpha},
       {"kernel", kernelName(p.kernel)},
       {"integrator", p.integrator == MpmIntegrator::SemiImplicit ? "semi_implicit" : "explicit"},
+      {"precision", p.precision == MpmPrecision::Float ? "float" : "double"},
       {"beta", p.implicit_beta},
       {"tolerance", p.implicit_tolerance},
       {"max_iterations", p.implicit_max_iterations},

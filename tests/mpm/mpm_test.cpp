@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <string>
+#include <type_traits>
 
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
@@ -25,14 +27,14 @@ Json baseScene() {
   })");
 }
 
-template <int D>
-MpmSolver<D> makeSolver(const Json& j, int threads = 0) {
+template <int D, class T = Real>
+MpmSolver<D, T> makeSolver(const Json& j, int threads = 0) {
   const Scene scene = parseScene(j, "test.json");
-  return MpmSolver<D>(scene, sampleBodies<D>(scene), threads);
+  return MpmSolver<D, T>(scene, sampleBodies<D>(scene), threads);
 }
 
-template <int D>
-void run(MpmSolver<D>& s, Real duration) {
+template <class Solver>
+void run(Solver& s, Real duration) {
   Real t = 0;
   while (t < duration - 1e-12) {
     const Real dt = std::min(s.stableTimeStep(), duration - t);
@@ -43,18 +45,20 @@ void run(MpmSolver<D>& s, Real duration) {
 
 // Angular momentum about the origin including APIC's affine part m (h^2/4)(C_10 - C_01) (Jiang et
 // al. 2015, section 5.3; D_p = h^2/4 I for quadratic B-splines).
-Real angularMomentum(const MpmSolver<2>& s, bool affine) {
+template <class T>
+Real angularMomentum(const MpmSolver<2, T>& s, bool affine) {
   const Particles<2>& p = s.particles();
   const Real d = s.grid().h * s.grid().h / 4;
   Real L = 0;
   for (int i = 0; i < p.size(); ++i) {
     L += p.mass[i] * (p.x[i][0] * p.v[i][1] - p.x[i][1] * p.v[i][0]);
-    if (affine) L += p.mass[i] * d * (s.affine()[i](1, 0) - s.affine()[i](0, 1));
+    if (affine) L += p.mass[i] * d * Real(s.affine()[i](1, 0) - s.affine()[i](0, 1));
   }
   return L;
 }
 
-Vec<2> linearMomentum(const MpmSolver<2>& s) {
+template <class T>
+Vec<2> linearMomentum(const MpmSolver<2, T>& s) {
   Vec<2> P = Vec<2>::Zero();
   for (int i = 0; i < s.particles().size(); ++i) P += s.particles().mass[i] * s.particles().v[i];
   return P;
@@ -70,28 +74,50 @@ Real meanY(const Particles<2>& p, int body) {
 
 // An elastic disc spinning at 5 rad/s about its centre (0.2, 0.2), without gravity, in a grid
 // whose walls it never reaches: v = omega (-(y - yc), x - xc).
-MpmSolver<2> spinningDisc(const Json& mpm) {
+template <class T = Real>
+MpmSolver<2, T> spinningDisc(const Json& mpm) {
   Json j = baseScene();
   j["grid"]["cells"] = {40, 40};
   j["gravity"] = {0, 0};
   j["mpm"] = mpm;
   j["material"] = {{"theta_c", 0.5}, {"theta_s", 0.5}};
   j["bodies"][0]["center"] = {0.2, 0.2};
-  auto s = makeSolver<2>(j);
-  auto& p = const_cast<Particles<2>&>(s.particles());
+  const Scene scene = parseScene(j, "test.json");
+  Particles<2> p = sampleBodies<2>(scene);
   for (int i = 0; i < p.size(); ++i) p.v[i] = 5.0 * Vec<2>(-(p.x[i][1] - 0.2), p.x[i][0] - 0.2);
-  return s;
+  return MpmSolver<2, T>(scene, std::move(p));
 }
+
+// The physical tests run in both precisions (mpm.precision). Their tolerances for round-off are
+// per precision: double's carried over the steps, and float's (6e-8 relative per operation), which
+// grows to what each float test states, measured in the comment beside it.
+template <class T>
+class MpmPhysics : public testing::Test {
+ protected:
+  static Real roundOff(Real in_double, Real in_float) {
+    return std::is_same_v<T, float> ? in_float : in_double;
+  }
+};
+struct PrecisionName {
+  template <class T>
+  static std::string GetName(int) {
+    return std::is_same_v<T, float> ? "Float" : "Double";
+  }
+};
+using Precisions = testing::Types<double, float>;
+TYPED_TEST_SUITE(MpmPhysics, Precisions, PrecisionName);
 
 }  // namespace
 
-TEST(Mpm, FreeFallFollowsTheDiscreteParabola) {
+TYPED_TEST(MpmPhysics, FreeFallFollowsTheDiscreteParabola) {
   Json j = baseScene();
   j["grid"]["cells"] = {40, 60};
   j["bodies"][0]["center"] = {0.1, 0.45};
   j["bodies"][0]["velocity"] = {0.3, 0.5};
   j["mpm"] = {{"adaptive_dt", false}};
-  auto s = makeSolver<2>(j);
+  auto s = makeSolver<2, TypeParam>(j);
+  const Real position_round_off = this->roundOff(1e-11, 1e-5);  // float: 2.3e-6
+  const Real strain_round_off = this->roundOff(1e-11, 1e-4);    // float: 3.1e-5
   const std::vector<Vec<2>> x0 = s.particles().x;  // stored in creation order until the first step
   const Real dt = 5e-5;  // below the CFL limit: round-off in the stress must not grow
   const int steps = 400;
@@ -106,35 +132,40 @@ TEST(Mpm, FreeFallFollowsTheDiscreteParabola) {
   for (int i = 0; i < s.particles().size(); ++i) {
     const Vec<2>& start = x0[id[i]];
     const Vec<2> expected = start + v0 * t + g * (dt * dt * steps * (steps + 1) / 2);
-    EXPECT_LT((s.particles().x[i] - expected).norm(), 1e-11);
+    EXPECT_LT((s.particles().x[i] - expected).norm(), position_round_off);
     EXPECT_LT((s.particles().x[i] - (start + v0 * t + 0.5 * g * t * t)).norm(),
-              9.81 * t * dt / 2 + 1e-11);
-    EXPECT_LT((s.elasticGradient()[i] - Mat<2>::Identity()).norm(), 1e-11);
+              9.81 * t * dt / 2 + position_round_off);
+    EXPECT_LT((s.elasticGradient()[i].template cast<Real>() - Mat<2>::Identity()).norm(),
+              strain_round_off);
   }
 }
 
-TEST(Mpm, BallsOfDifferentDensityFallTogether) {
+TYPED_TEST(MpmPhysics, BallsOfDifferentDensityFallTogether) {
   Json j = baseScene();
   j["grid"]["cells"] = {30, 30};
   j["bodies"] = Json::parse(R"([
     {"shape": "ball", "center": [0.07, 0.2], "radius": 0.03, "density": 200},
     {"shape": "ball", "center": [0.22, 0.2], "radius": 0.03, "density": 400}])");
-  auto s = makeSolver<2>(j);
+  auto s = makeSolver<2, TypeParam>(j);
   run(s, 0.15);  // before landing
-  EXPECT_NEAR(meanY(s.particles(), 0), meanY(s.particles(), 1), 1e-9);
+  EXPECT_NEAR(meanY(s.particles(), 0), meanY(s.particles(), 1),
+              this->roundOff(1e-9, 1e-6));  // float: 5.8e-8
   EXPECT_LT(meanY(s.particles(), 0), 0.2 - 0.09);
   run(s, 0.25);  // landed on the ground
   EXPECT_NEAR(meanY(s.particles(), 0), meanY(s.particles(), 1), 2e-3);
 }
 
-TEST(Mpm, AffineTransfersConserveMomentaOfASpinningDisc) {
+TYPED_TEST(MpmPhysics, AffineTransfersConserveMomentaOfASpinningDisc) {
   for (const char* transfer : {"apic", "mls"}) {
-    auto s = spinningDisc({{"transfer", transfer}});
+    auto s = spinningDisc<TypeParam>({{"transfer", transfer}});
     const Real L0 = angularMomentum(s, false);
     const Vec<2> P0 = linearMomentum(s);
     for (int n = 0; n < 300; ++n) s.step(s.stableTimeStep());
-    EXPECT_NEAR(angularMomentum(s, true), L0, 1e-10 * std::abs(L0)) << transfer;
-    EXPECT_LT((linearMomentum(s) - P0).norm(), 1e-12) << transfer;
+    EXPECT_NEAR(angularMomentum(s, true), L0,
+                this->roundOff(1e-10, 5e-3) * std::abs(L0))  // float: 1.5e-3
+        << transfer;
+    EXPECT_LT((linearMomentum(s) - P0).norm(), this->roundOff(1e-12, 5e-5))  // float: 1.3e-5
+        << transfer;
   }
 }
 
@@ -148,10 +179,10 @@ TEST(Mpm, PicLosesAngularMomentum) {
   EXPECT_LT(linearMomentum(s).norm(), 1e-12);
 }
 
-TEST(Mpm, BlockAtRestStaysAtRest) {
+TYPED_TEST(MpmPhysics, BlockAtRestStaysAtRest) {
   Json j = baseScene();
   j["bodies"] = Json::parse(R"([{"shape": "box", "center": [0.1, 0.03], "size": [0.08, 0.06]}])");
-  auto s = makeSolver<2>(j);
+  auto s = makeSolver<2, TypeParam>(j);
   run(s, 0.3);
   Real fastest = 0;
   for (const Vec<2>& v : s.particles().v) fastest = std::max(fastest, v.norm());
@@ -159,21 +190,22 @@ TEST(Mpm, BlockAtRestStaysAtRest) {
   EXPECT_NEAR(meanY(s.particles(), 0), 0.03, 2e-3);
 }
 
-TEST(Mpm, PlasticityBoundsAndCompaction) {
+TYPED_TEST(MpmPhysics, PlasticityBoundsAndCompaction) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {0, -2};
-  auto s = makeSolver<2>(j);
+  auto s = makeSolver<2, TypeParam>(j);
   run(s, 0.1);
   const SnowMaterial m = s.material();
+  const Real round_off = this->roundOff(1e-9, 1e-6);  // float: within the bounds exactly
   int compacted = 0;
   for (int i = 0; i < s.particles().size(); ++i) {
-    // Singular values of F_E as square roots of the eigenvalues of F_E^T F_E: independent of the
-    // solver's own SVD.
-    const Mat<2>& F = s.elasticGradient()[i];
+    // Singular values of F_E as square roots of the eigenvalues of F_E^T F_E (in double):
+    // independent of the solver's own SVD.
+    const Mat<2> F = s.elasticGradient()[i].template cast<Real>();
     const Vec<2> sigma =
         Eigen::SelfAdjointEigenSolver<Mat<2>>(F.transpose() * F).eigenvalues().cwiseSqrt();
-    EXPECT_GE(sigma.minCoeff(), 1 - m.theta_c - 1e-9);
-    EXPECT_LE(sigma.maxCoeff(), 1 + m.theta_s + 1e-9);
+    EXPECT_GE(sigma.minCoeff(), 1 - m.theta_c - round_off);
+    EXPECT_LE(sigma.maxCoeff(), 1 + m.theta_s + round_off);
     if (s.plasticJ()[i] < 0.95) {
       ++compacted;
       EXPECT_GT(s.lame(i).mu, m.mu0());  // hardening: compacted snow is stiffer
@@ -370,7 +402,7 @@ TEST(Mpm, StepLimitNamesTheTermsOfTheStableStep) {
   EXPECT_LT(limit.plastic_j, 1) << "compacted";
   EXPECT_NEAR(limit.hardening, std::exp(s.material().xi * (1 - limit.plastic_j)),
               1e-9 * limit.hardening);
-  const Real rest_wave = pWaveSpeed(hardenedLame(s.material(), 1), 400);
+  const Real rest_wave = pWaveSpeed(hardenedLame(s.material(), Real(1)), Real(400));
   EXPECT_NEAR(limit.wave_speed, rest_wave * std::sqrt(limit.hardening), 1e-9 * limit.wave_speed);
 
   double staged = 0;
@@ -519,6 +551,7 @@ TEST(Mpm, BadInputNamesTheField) {
       {"material.theta_s=0", "material.theta_s"},
       {"solver=fem", "solver"},
       {"mpm.transfer=sph", "mpm.transfer"},
+      {"mpm.precision=half", "mpm.precision"},
       {"colliders=[{\"shape\":\"box\",\"position\":[0.05,0.05],\"size\":[-0.01,0.02]}]",
        "colliders[0].size"}};
   for (const auto& [assignment, field] : cases) {
@@ -529,15 +562,23 @@ TEST(Mpm, BadInputNamesTheField) {
       EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
     }
   }
+  // Single precision runs the explicit integrator only.
+  try {
+    loadScene(SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json",
+              {"mpm.precision=float", "mpm.integrator=semi_implicit"});
+    ADD_FAILURE() << "a float semi-implicit scene was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mpm.precision"), std::string::npos) << e.what();
+  }
 }
 
 // Runs the scene for 4 ms on 1 (twice), 2 and 3 threads, and on 3 threads then 2 on one solver,
 // and expects the same positions bit for bit. Three threads on two cores: the work splits
 // unevenly and the threads take turns.
-template <int D>
+template <int D, class T = Real>
 void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) {
   auto runWith = [&](int threads, int then_threads) {
-    auto s = makeSolver<D>(j, threads);
+    auto s = makeSolver<D, T>(j, threads);
     run(s, 0.002);
     s.setThreads(then_threads);
     run(s, 0.002);
@@ -563,6 +604,7 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     j["mpm"] = {{"transfer", transfer}};
     expectBitIdenticalOnAnyThreadCount<2>(j, transfer);
   }
+  expectBitIdenticalOnAnyThreadCount<2, float>(j, "mls, float");
   j["mpm"] = {{"integrator", "semi_implicit"}};
   expectBitIdenticalOnAnyThreadCount<2>(j, "semi-implicit");
   // 3D: four colours of rows, blocks of 4^3 cells.
@@ -574,6 +616,7 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   j["bodies"][0]["velocity"] = {1, -2, 0.5};
   j["mpm"] = {{"transfer", "apic"}};
   expectBitIdenticalOnAnyThreadCount<3>(j, "3D APIC");
+  expectBitIdenticalOnAnyThreadCount<3, float>(j, "3D APIC, float");
 }
 
 // The particles' stored order changes only round-off (the order of the scatter's sums within a
@@ -652,7 +695,7 @@ TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
 // set ringing in its first free-free axial mode, u = A cos(pi x / L) sin(omega t): it vibrates
 // at omega = pi c / L with c = sqrt(E / rho), period T = 2 L / c. The period is measured from the
 // zero crossings of the mean axial velocity of the bar's right quarter.
-TEST(Mpm, ElasticBarVibratesAtItsAnalyticFrequency) {
+TYPED_TEST(MpmPhysics, ElasticBarVibratesAtItsAnalyticFrequency) {
   const Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05;
   Json j = Json::parse(R"({
     "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
@@ -668,7 +711,7 @@ TEST(Mpm, ElasticBarVibratesAtItsAnalyticFrequency) {
   const Real left = 0.15 - length / 2;
   for (int i = 0; i < particles.size(); ++i)
     particles.v[i] = Vec<2>(amplitude * std::cos(M_PI * (particles.x[i][0] - left) / length), 0);
-  MpmSolver<2> solver(scene, std::move(particles));
+  MpmSolver<2, TypeParam> solver(scene, std::move(particles));
 
   const Real c = std::sqrt(E / rho), period = 2 * length / c;
   auto endVelocity = [&] {

@@ -48,10 +48,10 @@ TEST(BSpline, CubicWeightsSumToOneGradientsToZero) {
 
 TEST(BSpline, CubicMatchesThePaperFormula) {
   // Stomakhin et al. 2013, eq. 5, at a few hand-checked points.
-  EXPECT_DOUBLE_EQ(CubicBSpline::value(0), 2.0 / 3.0);
-  EXPECT_DOUBLE_EQ(CubicBSpline::value(1), 1.0 / 6.0);
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(0.0), 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(1.0), 1.0 / 6.0);
   EXPECT_NEAR(CubicBSpline::value(-1.5), 1.0 / 48.0, 1e-15);
-  EXPECT_DOUBLE_EQ(CubicBSpline::value(2), 0);
+  EXPECT_DOUBLE_EQ(CubicBSpline::value(2.0), 0);
 }
 
 // Over a stencil visit (sim/core/stencil.h): the weights sum to one, their gradients to zero, the

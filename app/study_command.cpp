@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -27,7 +28,15 @@ struct StudyOptions {
   std::string preset = "full";
   std::string scenes = "scenes";
   std::string out = "docs/study/results.csv";
-  int threads = 0;  // the MPM solver's threads; 0: the OpenMP default
+  int threads = 0;                 // the MPM solver's threads; 0: the OpenMP default
+  std::string shard;               // "i/n": run the i-th of n shares of the sweep; empty: all of it
+  std::vector<std::string> merge;  // shard CSVs to join into `out`
+};
+
+// The i-th (1-based) of n shares of a study.
+struct Shard {
+  int index = 1;
+  int count = 1;
 };
 
 // One point of the sweep. refine halves the cell size and doubles the cells (same domain).
@@ -329,26 +338,105 @@ std::string csvField(std::string text) {
   return text;
 }
 
-// Runs the configurations of one sweep that this build has not measured yet, appending a CSV
-// row per run; returns how many it ran and adds to `skipped` those already measured.
-int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string& build,
-             const std::set<std::string>& done, Scenes& scenes, std::ofstream& csv, int& skipped) {
-  int measured = 0;
-  PileClaim pile_claim;
-  for (const std::string& scene : sweep.scenes) {
-    std::vector<Config> todo;
+// The runs of one sweep in the order a study runs them and writes their rows.
+std::vector<Config> configsOf(const Sweep& sweep) {
+  std::vector<Config> configs;
+  for (const std::string& scene : sweep.scenes)
     for (const std::string& solver : sweep.solvers)
       for (double E0 : sweep.E0s)
         for (double dt : sweep.dts)
           for (int refine : sweep.refines)
-            for (int ppc : sweep.particles_per_cell) {
-              const Config c{scene, solver, dt, refine, ppc, sweep.duration, E0};
-              if (done.count(keyOf(build, c))) {
-                ++skipped;
-                continue;
-              }
-              todo.push_back(c);
-            }
+            for (int ppc : sweep.particles_per_cell)
+              configs.push_back({scene, solver, dt, refine, ppc, sweep.duration, E0});
+  return configs;
+}
+
+Shard parseShard(const std::string& text) {
+  const std::string allowed = "; allowed: i/n with whole numbers 1 <= i <= n, e.g. 2/8";
+  const size_t slash = text.find('/');
+  int index = 0, count = 0;
+  size_t index_end = 0, count_end = 0;
+  try {
+    if (slash == std::string::npos) throw std::invalid_argument("no slash");
+    index = std::stoi(text.substr(0, slash), &index_end);
+    count = std::stoi(text.substr(slash + 1), &count_end);
+  } catch (const std::exception&) {
+    throw InputError("--shard: '" + text + "' is not i/n" + allowed);
+  }
+  if (index_end != slash || count_end != text.size() - slash - 1)
+    throw InputError("--shard: '" + text + "' is not i/n" + allowed);
+  if (count < 1 || index < 1 || index > count)
+    throw InputError("--shard: " + text + " is out of range" + allowed);
+  return {index, count};
+}
+
+// A run's rough cost, to balance the shards: its steps times its particles (the particles per
+// cell times the refined grid's cells in the scene's dimension), ten times that for the
+// semi-implicit solve (docs/study.md measures 5-37x the explicit run).
+double estimatedCost(const Config& c, const Scene& base) {
+  const double semi_implicit = c.solver.ends_with("_semi") ? 10 : 1;
+  return c.duration / c.dt * particlesPerCell(c.particles_per_cell, base.authored_dimension) *
+         std::pow(c.refine, base.dimension) * semi_implicit;
+}
+
+// The keys (without the build) of the runs a shard owns. Each run, the costliest first, goes to
+// the shard with the least estimated cost so far: dealing them round-robin in the study's order
+// would give one shard every run of the smallest dt whenever n divides the inner lists' lengths.
+// The Fig. 6 claim is scored on the x8 run from the x2 and x4 runs of the same settings, so those
+// three go to one shard together. Ties go to the earlier run and the lower shard: every shard
+// computes the same split.
+std::set<std::string> keysOfShard(const std::vector<Sweep>& preset, const Shard& shard,
+                                  Scenes& scenes) {
+  const std::string pile_family = "critical_density_x";
+  struct Unit {
+    double cost = 0;
+    std::vector<std::string> keys;
+  };
+  std::map<std::string, int> unit_of_settings;
+  std::vector<Unit> units;
+  for (const Sweep& sweep : preset)
+    for (const Config& c : configsOf(sweep)) {
+      Config settings = c;
+      if (settings.scene.starts_with(pile_family)) settings.scene = pile_family;
+      const auto [it, added] =
+          unit_of_settings.emplace(keyOf("", settings), static_cast<int>(units.size()));
+      if (added) units.emplace_back();
+      units[it->second].cost += estimatedCost(c, scenes[c.scene]);
+      units[it->second].keys.push_back(keyOf("", c));
+    }
+  std::vector<int> costliest_first(units.size());
+  std::iota(costliest_first.begin(), costliest_first.end(), 0);
+  std::stable_sort(costliest_first.begin(), costliest_first.end(),
+                   [&](int a, int b) { return units[a].cost > units[b].cost; });
+  std::vector<double> load(shard.count, 0);
+  std::set<std::string> keys;
+  for (const int u : costliest_first) {
+    const auto least = std::min_element(load.begin(), load.end()) - load.begin();
+    load[least] += units[u].cost;
+    if (least == shard.index - 1) keys.insert(units[u].keys.begin(), units[u].keys.end());
+  }
+  return keys;
+}
+
+// Runs the configurations of one sweep that this build has not measured yet and that belong to
+// this shard (all, when `owned` is null), appending a CSV row per run; returns how many it ran
+// and adds to `skipped` those already measured.
+int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string& build,
+             const std::set<std::string>& done, const std::set<std::string>* owned, Scenes& scenes,
+             std::ofstream& csv, int& skipped) {
+  int measured = 0;
+  PileClaim pile_claim;
+  const std::vector<Config> configs = configsOf(sweep);
+  for (const std::string& scene : sweep.scenes) {
+    std::vector<Config> todo;
+    for (const Config& c : configs) {
+      if (c.scene != scene || (owned && !owned->count(keyOf("", c)))) continue;
+      if (done.count(keyOf(build, c))) {
+        ++skipped;
+        continue;
+      }
+      todo.push_back(c);
+    }
     if (todo.empty()) continue;
 
     const Scene& base = scenes[scene];
@@ -406,6 +494,10 @@ int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string&
 }
 
 void study(const StudyOptions& options) {
+  const std::vector<Sweep> preset = presetNamed(options.preset);
+  Scenes scenes(options.scenes);
+  std::optional<std::set<std::string>> owned;
+  if (!options.shard.empty()) owned = keysOfShard(preset, parseShard(options.shard), scenes);
   const std::string build = buildId();
   const bool existed = std::filesystem::exists(options.out);
   const std::set<std::string> done = measuredKeys(options.out);
@@ -416,12 +508,91 @@ void study(const StudyOptions& options) {
   if (!existed) csv << kHeader << "\n";
 
   int measured = 0, skipped = 0;
-  Scenes scenes(options.scenes);
-  for (const Sweep& sweep : presetNamed(options.preset))
-    measured += runSweep(options, sweep, build, done, scenes, csv, skipped);
+  for (const Sweep& sweep : preset)
+    measured +=
+        runSweep(options, sweep, build, done, owned ? &*owned : nullptr, scenes, csv, skipped);
 
   std::printf("study: %d runs measured, %d already measured for build %s; results in %s\n",
               measured, skipped, build.c_str(), options.out.c_str());
+}
+
+// A shard's CSV: its rows by key (the first eight fields), each as written.
+struct ShardRows {
+  std::map<std::string, std::string> row_of_key;
+  int other_builds = 0;  // rows measured by another build, left out
+};
+
+ShardRows readShard(const std::string& path, const std::string& build) {
+  std::ifstream in(path);
+  if (!in) throw InputError("--merge: cannot read " + path);
+  std::string line;
+  if (!std::getline(in, line) || line != kHeader)
+    throw InputError("--merge: " + path + " is not a study CSV (its first line is not the header)");
+  ShardRows rows;
+  for (int number = 2; std::getline(in, line); ++number) {
+    size_t end = 0;
+    for (int field = 0; field < 8 && end != std::string::npos; ++field)
+      end = line.find(',', end + (field ? 1 : 0));
+    if (end == std::string::npos)
+      throw InputError("--merge: " + path + " line " + std::to_string(number) +
+                       " has fewer than the header's fields");
+    const std::string key = line.substr(0, end);
+    if (key.substr(0, key.find(',')) != build) {
+      ++rows.other_builds;
+      continue;
+    }
+    if (!rows.row_of_key.emplace(key, line).second)
+      throw InputError("--merge: " + path + " holds the run " + key + " twice");
+  }
+  return rows;
+}
+
+// Joins shard CSVs into the CSV one process would have written: the header, then each run of
+// the preset measured by this build, in the study's order. Refuses a run found in two shards, a
+// run missing from all, and a run the preset does not have.
+void mergeShards(const StudyOptions& options) {
+  if (std::filesystem::exists(options.out))
+    throw InputError("--merge: " + options.out +
+                     " exists; the merge writes a new file (remove it or give another -o)");
+  const std::string build = buildId();
+  std::map<std::string, std::pair<std::string, std::string>> row_and_file_of_key;
+  int other_builds = 0;
+  for (const std::string& path : options.merge) {
+    const ShardRows rows = readShard(path, build);
+    other_builds += rows.other_builds;
+    for (const auto& [key, row] : rows.row_of_key) {
+      const auto [it, added] = row_and_file_of_key.emplace(key, std::pair{row, path});
+      if (!added)
+        throw InputError("--merge: the run " + key + " is in both " + it->second.second + " and " +
+                         path + "; each run belongs to one shard");
+    }
+  }
+  std::set<std::string> preset_keys;
+  std::string text = std::string(kHeader) + "\n";
+  std::vector<std::string> missing;
+  for (const Sweep& sweep : presetNamed(options.preset))
+    for (const Config& c : configsOf(sweep)) {
+      const std::string key = keyOf(build, c);
+      preset_keys.insert(key);
+      const auto it = row_and_file_of_key.find(key);
+      if (it == row_and_file_of_key.end())
+        missing.push_back(key);
+      else
+        text += it->second.first + "\n";
+    }
+  for (const auto& [key, row_and_file] : row_and_file_of_key)
+    if (!preset_keys.count(key))
+      throw InputError("--merge: " + row_and_file.second + " holds the run " + key +
+                       ", which preset " + options.preset + " does not have");
+  if (!missing.empty())
+    throw InputError("--merge: " + std::to_string(missing.size()) + " runs of preset " +
+                     options.preset + " are in no shard (first: " + missing.front() + ")" +
+                     (other_builds ? "; " + std::to_string(other_builds) +
+                                         " rows of other builds than " + build + " were left out"
+                                   : std::string()));
+  writeFileAtomically(options.out, text);
+  std::printf("study: %zu runs of %zu shards merged into %s\n", preset_keys.size(),
+              options.merge.size(), options.out.c_str());
 }
 
 }  // namespace
@@ -441,6 +612,15 @@ void addStudyCommand(CLI::App& app) {
                   "are kept and skipped")
       ->capture_default_str();
   addThreadsOption(*cmd, options->threads);
+  auto* shard = cmd->add_option("--shard", options->shard,
+                                "i/n: run only the i-th of n shares of the sweep (1 <= i <= n), "
+                                "e.g. one task of a cluster job array; -o defaults to "
+                                "docs/study/results.shard-I-of-N.csv");
+  cmd->add_option("--merge", options->merge,
+                  "Join these shard CSVs into -o (a new file), in the order one process "
+                  "writes; refuses runs missing, found twice or not of --preset")
+      ->excludes(shard)
+      ->expected(1, -1);
   cmd->footer(
       "Each row: the configuration, wall time, steps, particles, errors against a reference run "
       "(density field, height profile, centre-of-mass path), the free-fall error, how far the "
@@ -448,7 +628,18 @@ void addStudyCommand(CLI::App& app) {
       "diverged (stopped by the divergence check), nan, escaped (left the domain) or tunnelled "
       "(the ball through the tower). Failed runs leave their error columns empty. Charts: "
       "scripts/charts.sh.");
-  cmd->callback([options] { study(*options); });
+  cmd->callback([options, cmd] {
+    if (!options->merge.empty()) {
+      mergeShards(*options);
+      return;
+    }
+    if (!options->shard.empty() && cmd->count("--out") == 0) {
+      const Shard shard = parseShard(options->shard);
+      options->out = "docs/study/results.shard-" + std::to_string(shard.index) + "-of-" +
+                     std::to_string(shard.count) + ".csv";
+    }
+    study(*options);
+  });
 }
 
 }  // namespace snowsim

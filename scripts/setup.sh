@@ -15,8 +15,8 @@ packages=(
   libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
   # tests (ffmpeg gives ffprobe for reading videos back)
   libgtest-dev libgmock-dev ffmpeg
-  # charts for the speed/accuracy study
-  gnuplot-nox
+  # charts for the speed/accuracy study, and OpenMPI's launcher for its shards
+  gnuplot-nox openmpi-bin
   # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
   clang libclang-rt-14-dev llvm
 )

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# A study across a Slurm cluster: a job array of shards, then a merge job that waits for them.
+# Usage (on the login node, from the repository):
+#   scripts/slurm_study.sh N OUT.csv [snowsim study options, e.g. --preset full]
+# submits `sbatch --array=1-N` of this script (each task runs
+# `snowsim study --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT` into OUT.shards/) and a
+# merge job with --dependency=afterok on the array. A failed task leaves the merge unrun; resubmit
+# and the shards resume (rows already measured are skipped). SNOWSIM: the binary (default
+# build/app/snowsim, on a file system the nodes share).
+#SBATCH --job-name=snowsim-study
+#SBATCH --cpus-per-task=2
+#SBATCH --array=1-8
+#SBATCH --output=slurm-study-%A_%a.out
+set -euo pipefail
+snowsim=${SNOWSIM:-$(cd "$(dirname "$0")/.." && pwd)/build/app/snowsim}
+
+if [ -n "${SLURM_ARRAY_TASK_ID:-}" ]; then  # one array task: one shard
+  shards=$1
+  shift
+  task=$SLURM_ARRAY_TASK_ID
+  count=$SLURM_ARRAY_TASK_COUNT
+  exec "$snowsim" study --shard "$task/$count" --threads "${SLURM_CPUS_PER_TASK:-2}" \
+    -o "$shards/shard-$task-of-$count.csv" "$@"
+fi
+
+# shellcheck source=scripts/study_launch.sh
+. "$(dirname "$0")/study_launch.sh"
+read_launch_arguments "$@"
+# sbatch runs a copy of this script, so the binary goes by its absolute path.
+export SNOWSIM=$snowsim
+array=$(sbatch --parsable --export=ALL --array="1-$count" "$0" "$shards" "${study_args[@]}")
+array=${array%%;*}  # "jobid;cluster" on federated clusters
+set_merge_command
+quoted=$(printf ' %q' "${merge_command[@]}")
+merge=$(sbatch --parsable --job-name=snowsim-study-merge --dependency="afterok:$array" \
+  --wrap="${quoted# }")
+echo "submitted shards as job array $array and the merge as job ${merge%%;*}"

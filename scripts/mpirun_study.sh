@@ -12,6 +12,9 @@ if [ -n "${OMPI_COMM_WORLD_RANK:-}" ]; then  # one rank: one shard
   shards=$1
   shift
   shard=$((OMPI_COMM_WORLD_RANK + 1))/$OMPI_COMM_WORLD_SIZE
+  # The machine's cores shared between its ranks, unless OMP_NUM_THREADS or --threads says.
+  cores=$(($(nproc) / ${OMPI_COMM_WORLD_LOCAL_SIZE:-1}))
+  export OMP_NUM_THREADS=${OMP_NUM_THREADS:-$((cores > 0 ? cores : 1))}
   exec "$snowsim" study --shard "$shard" \
     -o "$shards/shard-$((OMPI_COMM_WORLD_RANK + 1))-of-$OMPI_COMM_WORLD_SIZE.csv" "$@"
 fi

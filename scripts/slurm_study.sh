@@ -19,8 +19,9 @@ if [ -n "${SLURM_ARRAY_TASK_ID:-}" ]; then  # one array task: one shard
   shift
   task=$SLURM_ARRAY_TASK_ID
   count=$SLURM_ARRAY_TASK_COUNT
-  exec "$snowsim" study --shard "$task/$count" --threads "${SLURM_CPUS_PER_TASK:-2}" \
-    -o "$shards/shard-$task-of-$count.csv" "$@"
+  # The task's CPUs as the solver's threads, unless the study options give --threads.
+  export OMP_NUM_THREADS=${SLURM_CPUS_PER_TASK:-${OMP_NUM_THREADS:-1}}
+  exec "$snowsim" study --shard "$task/$count" -o "$shards/shard-$task-of-$count.csv" "$@"
 fi
 
 # shellcheck source=scripts/study_launch.sh

@@ -144,8 +144,8 @@ TEST(StudyShards, MergedShardsAreTheOneProcessStudy) {
   EXPECT_TRUE(std::filesystem::exists(dir / "launched.shards" / "shard-2-of-2.csv"));
 }
 
-// Slurm is not installed here: a stand-in sbatch records what the script submits, and an array
-// task's command line is checked with SNOWSIM=echo.
+// Slurm is not installed here: a stand-in sbatch records what the script submits, and a stand-in
+// snowsim what an array task runs.
 TEST(StudyShards, SlurmScriptSubmitsAnArrayAndADependentMerge) {
   const auto dir = freshDir("study_slurm");
   std::filesystem::create_directories(dir / "bin");
@@ -168,11 +168,16 @@ TEST(StudyShards, SlurmScriptSubmitsAnArrayAndADependentMerge) {
             std::string::npos)
       << submitted[1];
 
-  result = runCommand("SLURM_ARRAY_TASK_ID=2 SLURM_ARRAY_TASK_COUNT=3 SNOWSIM=echo " + script +
-                      " " + shards + " --preset full");
+  // A stand-in snowsim prints the threads it was given and its command line.
+  const auto snowsim = dir / "bin" / "snowsim";
+  std::ofstream(snowsim) << "#!/bin/sh\necho \"threads $OMP_NUM_THREADS: $*\"\n";
+  std::filesystem::permissions(snowsim, std::filesystem::perms::owner_all);
+  result =
+      runCommand("SLURM_ARRAY_TASK_ID=2 SLURM_ARRAY_TASK_COUNT=3 SLURM_CPUS_PER_TASK=4 SNOWSIM=" +
+                 snowsim.string() + " " + script + " " + shards + " --preset full");
   ASSERT_EQ(result.code, 0) << result.output;
   EXPECT_EQ(result.output,
-            "study --shard 2/3 --threads 2 -o " + shards + "/shard-2-of-3.csv --preset full\n");
+            "threads 4: study --shard 2/3 -o " + shards + "/shard-2-of-3.csv --preset full\n");
 }
 
 }  // namespace

@@ -276,7 +276,8 @@ void addRunCommand(CLI::App& app) {
       "Also write frame_NNNNN.vdb per frame (3D runs): OpenVDB grids density (kg/m^3) and "
       "velocity (m/s) on voxels of the cell size, for volumetric rendering");
   cmd->add_flag("--z-up", options->z_up,
-                "Write PLY and VDB frames with z up, as Blender and Houdini's Z-up scenes expect: "
+                "Write PLY and VDB frames with z up, as Blender's z-up world expects (Houdini is y "
+                "up, as snowsim): "
                 "(x, y, z) -> (x, -z, y), a rotation about x (snowsim render reads them back)");
   options->render.addTo(*cmd);
   cmd->footer(

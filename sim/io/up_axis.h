@@ -1,4 +1,4 @@
-// The up axis of exported files. snowsim simulates with y up; Blender and Houdini's Z-up tools want
+// The up axis of exported files. snowsim simulates with y up, as Houdini does; Blender's world has
 // z up. Z-up turns the scene +90 degrees about x: (x, y, z) -> (x, -z, y), a rotation
 // (determinant +1), so a right-handed frame stays right-handed and nothing is mirrored.
 #pragma once

@@ -26,6 +26,7 @@
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
+#include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
 #include "sim/simulation.h"
 #include "version.h"
@@ -44,22 +45,37 @@ struct RunOptions {
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   std::string precision;       // double | float: mpm.precision; empty: the scene's
   bool ply = true;
+  bool vdb = false;        // --vdb: frame_NNNNN.vdb density and velocity volumes (3D)
+  bool z_up = false;       // --z-up: PLY and VDB turned to z up, (x, y, z) -> (x, -z, y)
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
 };
 
-class PlySink final : public FrameSink {
+// Writes frame_NNNNN.EXT per frame with a writer of (path, snapshot, up axis): PLY or VDB.
+class FileSink final : public FrameSink {
  public:
-  PlySink(std::string dir, StageClock& clock) : dir_(std::move(dir)), clock_(clock) {}
+  using Writer = void (*)(const std::string&, const Snapshot&, UpAxis);
+  // `stage`: a string literal (StageClock keeps the pointer), e.g. "write PLY".
+  FileSink(std::string dir, std::string extension, Writer writer, UpAxis up, std::string_view stage,
+           StageClock& clock)
+      : dir_(std::move(dir)),
+        extension_(std::move(extension)),
+        stage_(stage),
+        writer_(writer),
+        up_(up),
+        clock_(clock) {}
   void write(const Snapshot& s) override {
-    const StageClock::Scope time(&clock_, "write PLY");
+    const StageClock::Scope time(&clock_, stage_);
     char name[32];
-    std::snprintf(name, sizeof name, "/frame_%05d.ply", s.frame);
-    writePly(dir_ + name, s);
+    std::snprintf(name, sizeof name, "/frame_%05d.", s.frame);
+    writer_(dir_ + name + extension_, s, up_);
   }
 
  private:
-  std::string dir_;
+  std::string dir_, extension_;
+  std::string_view stage_;
+  Writer writer_;
+  UpAxis up_;
   StageClock& clock_;
 };
 
@@ -115,6 +131,9 @@ void run(const RunOptions& options) {
                      " runs the report's method, which has no plastic compression; allowed: "
                      "white, density, speed (or --set solver=mpm)");
   const VideoSettings video = options.render.videoSettings(scene.fps);
+  if (options.vdb && scene.dimension != 3)
+    throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
+  const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
   if (options.estimate_only) return estimateOnly(scene, options.threads);
   const std::string video_name = scene.name + ".mp4";
   prepareRunDirectory(options.out, video_name, options.overwrite);
@@ -126,7 +145,12 @@ void run(const RunOptions& options) {
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads);
     fitToScene(render, scene, simulation->snapshot(0));
-    if (options.ply) sinks.push_back(std::make_unique<PlySink>(options.out, clock));
+    if (options.ply)
+      sinks.push_back(
+          std::make_unique<FileSink>(options.out, "ply", writePly, up, "write PLY", clock));
+    if (options.vdb)
+      sinks.push_back(
+          std::make_unique<FileSink>(options.out, "vdb", writeVdb, up, "write VDB", clock));
     if (options.render.png || options.render.mp4)
       sinks.push_back(std::make_unique<RenderSink>(
           render, options.render.png ? options.out : "",
@@ -177,6 +201,8 @@ void run(const RunOptions& options) {
                             {"stages", stageTimes(*simulation, clock, wall)},
                             {"colliders", collidersToJson(collidersAt(scene, scene.dimension, 0))}};
   if (options.scale != 1) summary["scale"] = options.scale;
+  summary["up_axis"] = options.z_up ? "z" : "y";
+  if (options.vdb) summary["vdb"] = true;
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},
@@ -245,9 +271,18 @@ void addRunCommand(CLI::App& app) {
                   "docs/performance.md); float runs the explicit integrator only")
       ->check(CLI::IsMember({"double", "float"}));
   addOffFlag(*cmd, "--no-ply", options->ply, "Do not write the per-frame PLY files");
+  cmd->add_flag(
+      "--vdb", options->vdb,
+      "Also write frame_NNNNN.vdb per frame (3D runs): OpenVDB grids density (kg/m^3) and "
+      "velocity (m/s) on voxels of the cell size, for volumetric rendering");
+  cmd->add_flag("--z-up", options->z_up,
+                "Write PLY and VDB frames with z up, as Blender's z-up world expects (Houdini is y "
+                "up, as snowsim): "
+                "(x, y, z) -> (x, -z, y), a rotation about x (snowsim render reads them back)");
   options->render.addTo(*cmd);
   cmd->footer(
-      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density), frame_NNNNN.png "
+      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density plastic_j mass "
+      "pscale id; docs/scene-format.md, \"Output files\"), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
       "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "
       "stage, particle count, dimension, cell size; a collapse of the time step and its cause; "

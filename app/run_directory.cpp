@@ -41,7 +41,7 @@ std::string describe(const std::vector<fs::path>& files) {
     if (file.extension() == kTemporary)
       ++temporaries;
     else if (name.rfind("frame_", 0) == 0)
-      ++frames[file.extension() == ".png" ? "PNG" : "PLY"];
+      ++frames[file.extension() == ".png" ? "PNG" : file.extension() == ".vdb" ? "VDB" : "PLY"];
     else
       others += ", " + name;
   }
@@ -56,7 +56,7 @@ std::string describe(const std::vector<fs::path>& files) {
 }  // namespace
 
 std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& video) {
-  static const std::regex frame(R"(frame_[0-9]{5,}\.(ply|png))");
+  static const std::regex frame(R"(frame_[0-9]{5,}\.(ply|png|vdb))");
   const std::string recorded = recordedVideo(dir);
   std::vector<fs::path> files;
   std::error_code ec;

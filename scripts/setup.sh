@@ -19,6 +19,11 @@ packages=(
   gnuplot-nox openmpi-bin
   # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
   clang libclang-rt-14-dev llvm
+  # --vdb volumes (sim/io/vdb.cpp)
+  libopenvdb-dev
+  # tests/export: the Blender loader script and the VDB import in Debian's Blender 3.4.1 (about
+  # 30 s to install; the test skips itself without it)
+  blender
 )
 
 missing=()

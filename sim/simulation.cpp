@@ -1,6 +1,7 @@
 #include "sim/simulation.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
@@ -45,11 +46,18 @@ class SimulationOf final : public Simulation {
     const Particles<D>& p = solver_->particles();
     s.position.resize(p.size());
     s.velocity.resize(p.size());
-    for (int i = 0; i < p.size(); ++i)  // in creation order, however the solver stores them
+    s.mass.resize(p.size());
+    s.radius.resize(p.size());
+    for (int i = 0; i < p.size(); ++i) {  // in creation order, however the solver stores them
+      const int id = p.id[i];
       for (int a = 0; a < 3; ++a) {
-        s.position[p.id[i]][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
-        s.velocity[p.id[i]][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
+        s.position[id][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
+        s.velocity[id][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
       }
+      s.mass[id] = static_cast<float>(p.mass[i]);
+      s.radius[id] =
+          static_cast<float>(std::pow(p.mass[i] / scene_.bodies[p.body[i]].density, 1.0 / D) / 2);
+    }
     s.colliders = collidersAt(scene_, D, s.time);
     solver_->describe(s);
     return s;

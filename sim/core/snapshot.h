@@ -47,6 +47,9 @@ struct Snapshot {
   std::vector<std::array<float, 3>> velocity;
   std::vector<float> density;    // kg/m^D per particle (current, interpolated from the grid)
   std::vector<float> plastic_j;  // J_P, the plastic volume ratio (MPM only; empty otherwise)
+  // Both empty in frames read from files older than these attributes:
+  std::vector<float> mass;    // kg (2D: kg per metre of depth)
+  std::vector<float> radius;  // m: half the edge of the particle's rest volume, (m / rho)^(1/D) / 2
   std::vector<SnapshotCollider> colliders;  // the scene's colliders (not the domain walls)
 
   int size() const { return static_cast<int>(position.size()); }

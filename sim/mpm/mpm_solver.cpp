@@ -57,6 +57,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
                      ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"");
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
+  continuePlasticity(scene);
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   for (const Collider<D>& c : colliders_) colliders_move_ = colliders_move_ || !c.velocity.isZero();
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
@@ -153,6 +154,20 @@ void MpmSolver<D, T>::scatterParticle(int p, PartialGrid& g, T dt) const {
       g.momentum[k] += w * momentum;
       g.force[k].noalias() += stress * s.gradientAt(node.offset, inv_h);
     });
+  }
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::continuePlasticity(const Scene& scene) {
+  // Particles are still in creation order: a body's are consecutive, from its first one on.
+  std::vector<int> first(scene.bodies.size(), -1);
+  for (int p = 0; p < particles_.size(); ++p) {
+    const int b = particles_.body[p];
+    if (first[b] < 0) first[b] = p;
+    const Snapshot* points = scene.bodies[b].points.get();
+    if (!points || points->plastic_j.empty()) continue;
+    particles_.J_P[p] = T(points->plastic_j[p - first[b]]);
+    particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
   }
 }
 

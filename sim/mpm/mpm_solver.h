@@ -85,6 +85,9 @@ class MpmSolver final : public Solver<D> {
   template <class Transfer, class Kernel>
   void stepWith(T dt);
 
+  // The J_P a points body's file gives (a run continued from its frame); the elastic part starts
+  // unstrained, as the file does not hold F_E.
+  void continuePlasticity(const Scene& scene);
   // Per particle p, in the paper's order.
   // 1 + 3. Mass and momentum (eq. 1) and the force (eq. 7) of one particle into a partial grid.
   template <class Transfer, class Kernel>

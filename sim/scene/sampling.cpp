@@ -22,6 +22,8 @@ bool bodyContains(const Body& body, const Vec3& p, int shape_dimension) {
       return r2 <= body.radius * body.radius;
     case BodyShape::HalfBall:
       return r2 <= body.radius * body.radius && along_cut >= 0;
+    case BodyShape::Points:  // a set of points holds no volume
+      return false;
   }
   return false;
 }
@@ -40,6 +42,16 @@ std::uint64_t splitMix64(std::uint64_t x) {
   x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
   x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
   return x ^ (x >> 31);
+}
+
+// A points body's particles as the file gives them; `mass` for each unless the file has masses.
+template <int D>
+void addPoints(const Snapshot& points, double mass, int body, Particles<D>& particles) {
+  for (int i = 0; i < points.size(); ++i) {
+    Vec<D> x, v;
+    for (int a = 0; a < D; ++a) x[a] = points.position[i][a], v[a] = points.velocity[i][a];
+    particles.add(x, v, points.mass.empty() ? mass : points.mass[i], body);
+  }
 }
 
 }  // namespace
@@ -63,6 +75,10 @@ Particles<D> sampleBodies(const Scene& scene) {
     const double spacing = particleSpacing(scene, body);
     // Every particle stands for an equal share of its cell's volume (for 2D, per metre of depth).
     const double mass = body.density * std::pow(spacing, D);
+    if (body.shape == BodyShape::Points) {
+      addPoints(*body.points, mass, static_cast<int>(b), particles);
+      continue;
+    }
 
     // Lattice range covering the body's bounding box (the whole slab depth when extruded).
     int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};

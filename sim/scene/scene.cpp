@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <sstream>
 
+#include "sim/core/errors.h"
+#include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
 
 namespace snowsim {
@@ -240,6 +243,55 @@ Seeding parseSeeding(JsonFields& f, Seeding fallback) {
              : Seeding::Lattice;
 }
 
+// What every body gives: its lattice's particles per cell (a points body's particles take their
+// mass from it when the file has none) and its rest density.
+void parseParticlesPerCellAndDensity(JsonFields& f, Body& b, const Scene& scene,
+                                     const JsonFields& scene_fields) {
+  b.own_particles_per_cell = f.has("particles_per_cell");
+  b.particles_per_cell = f.integer("particles_per_cell", scene.particles_per_cell, 1, 1000);
+  if (const std::string problem = latticeProblem(b.particles_per_cell, scene.authored_dimension);
+      !problem.empty())
+    (b.own_particles_per_cell ? f : scene_fields).fail("particles_per_cell", problem);
+  b.density = f.number("density", b.density, 0, 1e6, true);
+}
+
+// A points body: {"shape": "points", "file": "state.ply"}, the file's particles as they are. The
+// file is read here, so that a missing file, missing columns or particles outside the grid fail
+// before anything runs.
+Body parsePointsBody(JsonFields& f, Body& b, const Scene& scene, const JsonFields& scene_fields) {
+  const std::string given = f.string("file", std::nullopt);
+  b.file = std::filesystem::absolute(std::filesystem::path(scene.file).parent_path() / given)
+               .lexically_normal()
+               .string();
+  parseParticlesPerCellAndDensity(f, b, scene, scene_fields);
+  f.finish();
+  try {
+    b.points = std::make_shared<const Snapshot>(readPly(b.file, PlyContent::Particles));
+  } catch (const InputError& e) {
+    f.fail("file", e.what());
+  }
+  if (b.points->size() == 0) f.fail("file", b.file + ": holds no particles");
+  const Vec3 extent = scene.extent();
+  for (int i = 0; i < b.points->size(); ++i)
+    for (int a = 0; a < scene.dimension; ++a) {
+      const double x = b.points->position[i][a];
+      if (!(x >= 0 && x < extent[a])) {
+        std::ostringstream s;
+        s << b.file << ": particle " << i << " lies outside the grid along axis "
+          << "xyz"[a] << " (" << x << " m; the grid spans [0, " << extent[a] << ") m)";
+        f.fail("file", s.str());
+      }
+    }
+  for (const auto& v : b.points->velocity)
+    if (!(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2])))
+      f.fail("file", b.file + ": a velocity is not a finite number");
+  for (const auto* column : {&b.points->mass, &b.points->plastic_j})
+    for (float value : *column)
+      if (!(value > 0 && std::isfinite(value)))
+        f.fail("file", b.file + ": a mass or plastic_j is not a positive number");
+  return b;
+}
+
 // `scene_fields` reads the scene's top level: a default count that fills no lattice is its fault.
 Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& scene_fields) {
   const std::string path = "bodies[" + std::to_string(index) + "]";
@@ -247,10 +299,12 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
   const std::vector<int> dims{scene.authored_dimension};
   Body b;
   b.name = f.string("name", "body" + std::to_string(index));
-  const auto shape = f.choice("shape", {"ball", "box", "half_ball"}, std::nullopt);
-  b.shape = shape == "ball"  ? BodyShape::Ball
-            : shape == "box" ? BodyShape::Box
-                             : BodyShape::HalfBall;
+  const auto shape = f.choice("shape", {"ball", "box", "half_ball", "points"}, std::nullopt);
+  b.shape = shape == "ball"        ? BodyShape::Ball
+            : shape == "box"       ? BodyShape::Box
+            : shape == "half_ball" ? BodyShape::HalfBall
+                                   : BodyShape::Points;
+  if (b.shape == BodyShape::Points) return parsePointsBody(f, b, scene, scene_fields);
   b.center = toVec3(f.numbers("center", std::nullopt, dims));
   if (b.shape == BodyShape::Box) {
     b.size = positiveExtents(f, "size", scene.authored_dimension);
@@ -263,12 +317,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
     b.cut_normal = unitDirection(f, "cut_normal", cut);
   }
   b.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
-  b.own_particles_per_cell = f.has("particles_per_cell");
-  b.particles_per_cell = f.integer("particles_per_cell", scene.particles_per_cell, 1, 1000);
-  if (const std::string problem = latticeProblem(b.particles_per_cell, scene.authored_dimension);
-      !problem.empty())
-    (b.own_particles_per_cell ? f : scene_fields).fail("particles_per_cell", problem);
-  b.density = f.number("density", b.density, 0, 1e6, true);
+  parseParticlesPerCellAndDensity(f, b, scene, scene_fields);
   b.seeding = parseSeeding(f, scene.seeding);
   f.finish();
 

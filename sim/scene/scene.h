@@ -3,11 +3,13 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "sim/core/bspline.h"
+#include "sim/core/snapshot.h"
 #include "sim/mpm/snow_material.h"
 
 namespace snowsim {
@@ -15,7 +17,8 @@ namespace snowsim {
 using Vec3 = std::array<double, 3>;
 
 enum class SolverType { DensityHybrid, Mpm };
-enum class BodyShape { Ball, Box, HalfBall };
+// Points: the particles of a PLY file (a frame of a run, or another tool's state), as they are.
+enum class BodyShape { Ball, Box, HalfBall, Points };
 // Where a body's particles sit in their lattice cells: at the centres, or each at a random point
 // of its cell (deterministic for the scene's seed), which breaks the lattice's stripes in 3D.
 enum class Seeding { Lattice, Jittered };
@@ -86,11 +89,16 @@ struct ColliderParams {
 struct Body {
   std::string name;
   BodyShape shape = BodyShape::Ball;
-  Vec3 center{};                       // ball and half ball centre, box centre (m)
-  double radius = 0;                   // ball and half ball (m)
-  Vec3 size{};                         // box extents (m)
-  Vec3 cut_normal{0, 1, 0};            // half ball: keeps the points with (x - center) . n >= 0
-  Vec3 velocity{};                     // initial velocity (m/s)
+  Vec3 center{};             // ball and half ball centre, box centre (m)
+  double radius = 0;         // ball and half ball (m)
+  Vec3 size{};               // box extents (m)
+  Vec3 cut_normal{0, 1, 0};  // half ball: keeps the points with (x - center) . n >= 0
+  Vec3 velocity{};           // initial velocity (m/s)
+  // Points: the PLY file (as resolved against the scene's directory) and its particles, read and
+  // checked once when the scene is loaded: positions and velocities in the scene's y-up axes, and
+  // the masses and J_P when the file has them.
+  std::string file;
+  std::shared_ptr<const Snapshot> points;
   int particles_per_cell = 27;         // particles per cell of the scene's authored dimension
   double density = 400;                // kg/m^3
   Seeding seeding = Seeding::Lattice;  // the scene's unless the body gives its own

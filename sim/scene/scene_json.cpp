@@ -75,6 +75,11 @@ Json colliderJson(const ColliderParams& c, int dimension) {
 }
 
 Json bodyJson(const Body& b, int dimension) {
+  if (b.shape == BodyShape::Points) {
+    Json j = {{"name", b.name}, {"shape", "points"}, {"file", b.file}, {"density", b.density}};
+    if (b.own_particles_per_cell) j["particles_per_cell"] = b.particles_per_cell;
+    return j;
+  }
   Json j = {{"name", b.name},
             {"shape", b.shape == BodyShape::Ball  ? "ball"
                       : b.shape == BodyShape::Box ? "box"

@@ -32,6 +32,8 @@ Snapshot sample(bool with_plastic) {
     s.velocity.push_back({-1.0f * i, 0.5f, 0});
     s.density.push_back(100.0f + i);
     if (with_plastic) s.plastic_j.push_back(0.9f + 0.01f * i);
+    s.mass.push_back(1e-3f * (i + 1));
+    s.radius.push_back(0.002f);
   }
   return s;
 }
@@ -55,7 +57,45 @@ TEST(Ply, RoundTripsEveryField) {
     EXPECT_EQ(r.velocity, s.velocity);
     EXPECT_EQ(r.density, s.density);
     EXPECT_EQ(r.plastic_j, s.plastic_j);
+    EXPECT_EQ(r.mass, s.mass);
+    EXPECT_EQ(r.radius, s.radius);
   }
+}
+
+TEST(Ply, ZUpFramesReadBackInTheScenesAxes) {
+  Snapshot s = sample(true);
+  s.position[1] = {0.1f, 0.2f, 0.3f};
+  s.velocity[1] = {-1.f, 2.f, -3.f};
+  const std::string path = (tempDir() / "z_up.ply").string();
+  writePly(path, s, UpAxis::Z);
+  const Snapshot r = readPly(path);
+  EXPECT_EQ(r.position, s.position);
+  EXPECT_EQ(r.velocity, s.velocity);
+}
+
+// Another tool's PLY: any scalar types, columns in any order, no snowsim comments.
+TEST(Ply, ParticlesFromAnotherToolsFile) {
+  const std::string path = (tempDir() / "foreign.ply").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "ply\nformat binary_little_endian 1.0\ncomment from elsewhere\nelement vertex 2\n"
+        << "property double vx\nproperty double vy\nproperty double vz\nproperty uchar red\n"
+        << "property float x\nproperty float y\nproperty float z\nend_header\n";
+    for (int i = 0; i < 2; ++i) {
+      const double v[3] = {1.0 + i, 2.0, 3.0};
+      const unsigned char red = 200;
+      const float x[3] = {0.25f * i, 0.5f, 0.75f};
+      out.write(reinterpret_cast<const char*>(v), sizeof v);
+      out.write(reinterpret_cast<const char*>(&red), 1);
+      out.write(reinterpret_cast<const char*>(x), sizeof x);
+    }
+  }
+  EXPECT_THROW(readPly(path), InputError) << "not a frame snowsim can draw";
+  const Snapshot r = readPly(path, PlyContent::Particles);
+  ASSERT_EQ(r.size(), 2);
+  EXPECT_EQ(r.position[1], (std::array<float, 3>{0.25f, 0.5f, 0.75f}));
+  EXPECT_EQ(r.velocity[1], (std::array<float, 3>{2.f, 2.f, 3.f}));
+  EXPECT_TRUE(r.mass.empty() && r.plastic_j.empty());
 }
 
 TEST(Ply, HeaderIsStandardBinaryPly) {

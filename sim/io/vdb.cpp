@@ -1,0 +1,94 @@
+#include "sim/io/vdb.h"
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+
+#include <openvdb/openvdb.h>
+
+#include "sim/core/bspline.h"
+#include "sim/core/errors.h"
+
+namespace snowsim {
+
+namespace {
+
+// The voxel of node (i, j, k) in the file's axes: (x, y, z) -> (x, -z, y) for z up.
+openvdb::Coord voxelOf(int i, int j, int k, UpAxis up) {
+  const auto turned = toUpAxis<int>({i, j, k}, up);
+  return {turned[0], turned[1], turned[2]};
+}
+
+}  // namespace
+
+void writeVdb(const std::string& path, const Snapshot& s, UpAxis up) {
+  if (s.grid.dimension != 3 || s.mass.size() != s.position.size())
+    throw InputError(path + ": a VDB volume needs a 3D frame with particle masses");
+  static std::once_flag initialised;
+  std::call_once(initialised, [] { openvdb::initialize(); });
+
+  const double h = s.grid.cell_size;
+  const auto transform = openvdb::math::Transform::createLinearTransform(h);
+  auto mass = openvdb::FloatGrid::create(0.f);
+  auto momentum = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.f));
+  {
+    auto mass_at = mass->getAccessor();
+    auto momentum_at = momentum->getAccessor();
+    for (int p = 0; p < s.size(); ++p) {
+      double w[3][3], dw[3][3];
+      int base[3];
+      for (int a = 0; a < 3; ++a)
+        base[a] = QuadraticBSpline::weights(s.position[p][a] / h, w[a], dw[a]);
+      const auto v = toUpAxis(s.velocity[p], up);
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 3; ++j)
+          for (int i = 0; i < 3; ++i) {
+            const float m = static_cast<float>(s.mass[p] * w[0][i] * w[1][j] * w[2][k]);
+            const openvdb::Coord voxel = voxelOf(base[0] + i, base[1] + j, base[2] + k, up);
+            mass_at.setValue(voxel, mass_at.getValue(voxel) + m);
+            momentum_at.setValue(
+                voxel, momentum_at.getValue(voxel) + openvdb::Vec3s(v[0], v[1], v[2]) * m);
+          }
+    }
+  }
+  auto density = openvdb::FloatGrid::create(0.f);
+  auto velocity = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.f));
+  {
+    auto density_at = density->getAccessor();
+    auto velocity_at = velocity->getAccessor();
+    auto momentum_at = momentum->getConstAccessor();
+    const float inv_volume = static_cast<float>(1 / (h * h * h));
+    for (auto node = mass->cbeginValueOn(); node; ++node) {
+      if (*node <= 0) continue;
+      density_at.setValue(node.getCoord(), *node * inv_volume);
+      velocity_at.setValue(node.getCoord(), momentum_at.getValue(node.getCoord()) / *node);
+    }
+  }
+  density->setName("density");
+  density->setGridClass(openvdb::GRID_FOG_VOLUME);
+  velocity->setName("velocity");
+  velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
+  openvdb::GridPtrVec grids{density, velocity};
+  for (auto& grid : grids) {
+    grid->setTransform(transform->copy());
+    grid->insertMeta("snowsim_time", openvdb::DoubleMetadata(s.time));
+  }
+
+  const std::string temporary = path + ".tmp";
+  try {
+    openvdb::io::File file(temporary);
+    file.write(grids);
+    file.close();
+  } catch (const openvdb::Exception& e) {
+    std::filesystem::remove(temporary);
+    throw InputError(path + ": cannot write (" + e.what() + ")");
+  }
+  std::error_code ec;
+  std::filesystem::rename(temporary, path, ec);
+  if (ec) {
+    std::filesystem::remove(temporary);
+    throw InputError(path + ": cannot write (" + ec.message() + ")");
+  }
+}
+
+}  // namespace snowsim

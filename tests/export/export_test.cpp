@@ -1,0 +1,219 @@
+// Taking snow to other tools and back: the PLY's attributes, --z-up, the VDB volumes, the Blender
+// loader (run in Debian's Blender) and runs that start from a PLY frame.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/io/ply.h"
+#include "tests/cli/run_snowsim.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using namespace snowsim_test;
+
+// A small 3D MPM snowball smashed into a wall: a few hundred particles, some compacted.
+const std::string kSmash = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/study_smash_3d.json";
+
+std::string plyHeader(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string header, line;
+  while (std::getline(in, line) && line != "end_header") header += line + "\n";
+  return header;
+}
+
+// A run of the smash scene for `duration` seconds into `out`, PLY frames only unless `extra` asks.
+void runSmash(const fs::path& out, double duration, const std::string& extra = "") {
+  const Result r = runSnowsim("run " + kSmash + " -o " + out.string() +
+                              " --no-png --no-mp4 --set time.duration=" + std::to_string(duration) +
+                              " " + extra);
+  ASSERT_EQ(r.code, 0) << r.output;
+}
+
+TEST(Export, PlyFramesCarryTheAttributesDccToolsRead) {
+  const fs::path out = freshDir("export_ply");
+  runSmash(out, 0.04);
+  const std::string header = plyHeader(out / "frame_00002.ply");
+  for (const char* property :
+       {"property float vx\n", "property float density\n", "property float plastic_j\n",
+        "property float mass\n", "property float pscale\n", "property int id\n",
+        "comment snowsim up y\n"})
+    EXPECT_NE(header.find(property), std::string::npos) << property << "missing from\n" << header;
+  const snowsim::Snapshot s = snowsim::readPly((out / "frame_00002.ply").string());
+  ASSERT_EQ(s.radius.size(), s.position.size());
+  // 8 particles per cell of 1 cm: spacing 5 mm, radius half of it.
+  EXPECT_NEAR(s.radius.front(), 0.0025, 1e-7);
+  EXPECT_NEAR(s.mass.front(), 400 * std::pow(0.005, 3), 1e-9) << "the scene's default density";
+}
+
+TEST(Export, ZUpTurnsPositionsAndVelocitiesAndReadsBack) {
+  const fs::path y_up = freshDir("export_y_up"), z_up = freshDir("export_z_up");
+  runSmash(y_up, 0.04);
+  runSmash(z_up, 0.04, "--z-up");
+  EXPECT_NE(plyHeader(z_up / "frame_00002.ply").find("comment snowsim up z\n"), std::string::npos);
+  const snowsim::Snapshot a = snowsim::readPly((y_up / "frame_00002.ply").string());
+  const snowsim::Snapshot b = snowsim::readPly((z_up / "frame_00002.ply").string());
+  EXPECT_EQ(a.position, b.position) << "the reader turns z-up frames back";
+  EXPECT_EQ(a.velocity, b.velocity);
+  // The file itself holds (x, -z, y): the first particle's position, as floats after the header.
+  std::ifstream in(z_up / "frame_00002.ply", std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(plyHeader(z_up / "frame_00002.ply").size() +
+                                       std::string("end_header\n").size()));
+  float raw[3];
+  in.read(reinterpret_cast<char*>(raw), sizeof raw);
+  EXPECT_EQ(raw[0], a.position[0][0]);
+  EXPECT_EQ(raw[1], -a.position[0][2]);
+  EXPECT_EQ(raw[2], a.position[0][1]);
+  // snowsim render reads them as any frame.
+  const Result r = runSnowsim("render " + z_up.string() + " --no-mp4 --width 64 --height 48");
+  EXPECT_EQ(r.code, 0) << r.output;
+}
+
+TEST(Export, FramesOlderThanTheAttributesStillRead) {
+  for (const char* name : {"mpm_2d.ply", "mpm_3d.ply", "report_2d.ply"}) {
+    const snowsim::Snapshot s =
+        snowsim::readPly(std::string(SNOWSIM_SOURCE_DIR) + "/fuzz/corpus/ply/" + name);
+    EXPECT_GT(s.size(), 0) << name;
+    EXPECT_TRUE(s.mass.empty() && s.radius.empty()) << name;
+  }
+}
+
+TEST(Export, VdbIsRefusedFor2DRuns) {
+  const fs::path out = freshDir("export_vdb_2d");
+  const Result r = runSnowsim("run " + std::string(SNOWSIM_SOURCE_DIR) +
+                              "/scenes/snowball_drop.json -o " + out.string() + " --vdb");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--vdb"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "frame_00000.ply"));
+}
+
+// The loader script in Debian's Blender: one object animated through the frames, its attributes,
+// and the VDB sequence as a volume where the particles are.
+TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
+  if (runCommand("command -v blender").code != 0)
+    GTEST_SKIP() << "blender is not installed (apt-get install blender; scripts/setup.sh does)";
+  const fs::path out = freshDir("export_blender");
+  runSmash(out, 0.06, "--vdb");
+  ASSERT_TRUE(fs::exists(out / "frame_00003.vdb"));
+  const fs::path report = out.parent_path() / "blender_report.json";
+  const std::string source = SNOWSIM_SOURCE_DIR;
+  const Result r = runCommand("SNOWSIM_BLENDER_REPORT=" + report.string() +
+                              " blender -b --factory-startup --python-exit-code 1 --python " +
+                              source + "/scripts/blender_load_run.py --python " + source +
+                              "/tests/export/blender_check.py -- " + out.string() + " --vdb");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto blender = nlohmann::json::parse(std::ifstream(report));
+
+  int from_run = 0;
+  for (const auto& object : blender["objects"]) from_run += object["from_run"].get<bool>();
+  EXPECT_EQ(from_run, 1) << "one object for all the frames";
+  EXPECT_EQ(blender["frame_start"], 0);
+  EXPECT_EQ(blender["frame_end"], 3);
+  EXPECT_DOUBLE_EQ(blender["fps"].get<double>(), 50);
+  EXPECT_NEAR(blender["particles_rotation"][0].get<double>(), M_PI / 2, 1e-6) << "y up to z up";
+
+  for (const int frame : {0, 3}) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.ply", frame);
+    const snowsim::Snapshot ply = snowsim::readPly((out / name).string());
+    const auto& shown = blender["frames"][std::to_string(frame)];
+    ASSERT_EQ(shown["count"], ply.size()) << name;
+    const auto& positions = shown["positions"];
+    for (int i = 0; i < ply.size(); ++i)
+      for (int a = 0; a < 3; ++a)
+        ASSERT_EQ(positions[3 * i + a].get<float>(), ply.position[i][a])
+            << name << " particle " << i;
+    const auto& attributes = shown["attributes"];
+    for (const char* attribute : {"velocity", "density", "plastic_j", "mass", "pscale", "id"})
+      EXPECT_TRUE(attributes.contains(attribute)) << attribute << " at frame " << frame;
+    if (frame == 3) {
+      for (const char* varying : {"velocity", "density", "plastic_j", "id"})
+        EXPECT_LT(attributes[varying]["min"].get<double>(),
+                  attributes[varying]["max"].get<double>())
+            << varying << " is constant at frame 3";
+    }
+  }
+  EXPECT_EQ(blender["frames"]["3"]["attributes"]["id"]["type"], "INT");
+  EXPECT_EQ(blender["frames"]["3"]["attributes"]["velocity"]["type"], "FLOAT_VECTOR");
+
+  // The volume at the last frame: its file, its grids, and the particles' extent grown by the
+  // quadratic B-spline's reach (1.5 cells), within one voxel.
+  const auto& volume = blender["volume"];
+  EXPECT_EQ(volume["error"], "");
+  EXPECT_NE(volume["file"].get<std::string>().find("frame_00003.vdb"), std::string::npos);
+  EXPECT_EQ(volume["grids"]["density"], "FLOAT");
+  EXPECT_EQ(volume["grids"]["velocity"], "VECTOR_FLOAT");
+  const snowsim::Snapshot last = snowsim::readPly((out / "frame_00003.ply").string());
+  const double h = last.grid.cell_size;
+  EXPECT_GT(volume["surface_vertices"].get<int>(), 0) << "the density grid is empty";
+  for (int a = 0; a < 3; ++a) {
+    float lo = last.position[0][a], hi = lo;
+    for (const auto& p : last.position) lo = std::min(lo, p[a]), hi = std::max(hi, p[a]);
+    EXPECT_NEAR(volume["density_min"][a].get<double>(), lo - 1.5 * h, h) << "axis " << a;
+    EXPECT_NEAR(volume["density_max"][a].get<double>(), hi + 1.5 * h, h) << "axis " << a;
+  }
+}
+
+// A scene whose only body is the particles of `ply` (a path relative to the scene), written
+// next to it, with the smash scene's grid and solver.
+fs::path pointsScene(const fs::path& dir, const std::string& ply) {
+  auto scene = nlohmann::json::parse(std::ifstream(kSmash));
+  scene["name"] = "continued";
+  scene["bodies"] = {{{"shape", "points"}, {"file", ply}}};
+  fs::create_directories(dir);
+  const fs::path file = dir / "continued.json";
+  std::ofstream(file) << scene.dump(2);
+  return file;
+}
+
+TEST(Export, ARunContinuesFromAnotherRunsLastFrame) {
+  const fs::path a = freshDir("export_a"), b = freshDir("export_b");
+  runSmash(a, 0.1);
+  const fs::path scene = pointsScene(a.parent_path(), "export_a/frame_00005.ply");
+  const Result r = runSnowsim("run " + scene.string() + " -o " + b.string() +
+                              " --no-png --no-mp4 --set time.duration=0.02");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const snowsim::Snapshot last = snowsim::readPly((a / "frame_00005.ply").string());
+  const snowsim::Snapshot first = snowsim::readPly((b / "frame_00000.ply").string());
+  EXPECT_EQ(first.position, last.position);
+  EXPECT_EQ(first.velocity, last.velocity);
+  EXPECT_EQ(first.plastic_j, last.plastic_j) << "the compaction carries over";
+  EXPECT_EQ(first.mass, last.mass);
+  EXPECT_EQ(first.radius, last.radius);
+  EXPECT_NE(snowsim::readPly((b / "frame_00001.ply").string()).position, first.position)
+      << "and the run goes on from there";
+}
+
+TEST(Export, APointsBodyFileIsChecked) {
+  const fs::path dir = freshDir("export_points_bad");
+  const auto expectRefused = [&](const std::string& set, const std::string& says) {
+    const Result r = runSnowsim("run " + pointsScene(dir, "state.ply").string() + " -o " +
+                                (dir / "out").string() + " --no-png --no-mp4 " + set);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("bodies[0].file"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "out" / "frame_00000.ply"));
+  };
+  expectRefused("", "state.ply: cannot open");
+  {
+    std::ofstream ply(dir / "state.ply", std::ios::binary);
+    ply << "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+        << "property float y\nproperty float z\nend_header\n";
+    const float xyz[3] = {0.05f, 0.05f, 0.05f};
+    ply.write(reinterpret_cast<const char*>(xyz), sizeof xyz);
+  }
+  expectRefused("", "no vertex property vx");
+  const fs::path a = freshDir("export_points_source");
+  runSmash(a, 0);
+  fs::copy_file(a / "frame_00000.ply", dir / "state.ply", fs::copy_options::overwrite_existing);
+  expectRefused("--set 'grid.cells=[4,10,8]'", "outside the grid along axis x");
+}
+
+}  // namespace

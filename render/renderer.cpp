@@ -438,7 +438,10 @@ Image Renderer::render(const Snapshot& s) {
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
-  if (settings_.show_grid) gridLines(s, extent, camera, w, h, palette.background, g.lines);
+  if (settings_.show_grid)
+    gridLines(s, extent, camera, w, h, palette.background, g.lines);
+  else if (s.grid.dimension == 2)
+    groundLine(extent, g.lines);  // 3D frames have their ground plane
   g.meshes.clear();
   if (s.grid.dimension == 3)
     appendGround(extent, 0.3f * std::max(extent.x, extent.z), palette.ground, g.meshes);

@@ -2,7 +2,10 @@
 // spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a 2D
 // frame (orthographic, the report's look) of 1M; and per frame for each encoder (PNG, MP4).
 // Medians of the wall time, and the process's CPU time a frame (all of llvmpipe's threads; on a
-// shared machine it tells the work apart from the waiting). Usage: render_bench [repetitions=5]
+// shared machine it tells the work apart from the waiting). Usage:
+//   render_bench [repetitions=5] [frames_directory]
+// With a directory, the 3D frames with shadows and occlusion are also written there as PNGs
+// (both_250000.png, ...), to look at or to compare across builds with `snowsim diff`.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -73,6 +76,7 @@ RenderSettings fullHd(bool shadows, bool occlusion) {
 
 int main(int argc, char** argv) {
   const int repetitions = argc > 1 ? std::atoi(argv[1]) : 5;
+  const char* frames_directory = argc > 2 ? argv[2] : nullptr;
   std::printf("1920x1080, ms a frame: wall (cpu)    %-14s %-14s %-14s %-14s\n", "plain", "shadows",
               "occlusion", "both");
   Renderer plain(fullHd(false, false)), shadows(fullHd(true, false)),
@@ -83,6 +87,9 @@ int main(int argc, char** argv) {
     for (Renderer* renderer : {&plain, &shadows, &occlusion, &both})
       std::printf(" %-14s", timeFrames(*renderer, s, repetitions).c_str());
     std::printf("\n");
+    if (frames_directory)
+      writePng(std::string(frames_directory) + "/both_" + std::to_string(n) + ".png",
+               both.render(s));
   }
   std::printf("2D  1000000 spheres (sprites)    %s\n",
               timeFrames(plain, packedSnow(2, 1'000'000), repetitions).c_str());

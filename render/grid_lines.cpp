@@ -6,6 +6,8 @@ namespace snowsim {
 
 namespace {
 
+const glm::vec3 kGroundColour(0.55f, 0.42f, 0.3f);
+
 // Appends one line segment (two vertices of position and colour).
 void addLine(std::vector<float>& out, glm::vec3 a, glm::vec3 b, glm::vec3 colour) {
   for (const glm::vec3& p : {a, b})
@@ -39,10 +41,14 @@ float lineOpacity(int level, float pixels_per_cell) {
 
 }  // namespace
 
+void groundLine(glm::vec3 extent, std::vector<float>& out) {
+  addLine(out, {0, 0, 0}, {extent.x, 0, 0}, kGroundColour);
+}
+
 void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
                glm::vec3 background, std::vector<float>& out) {
   const float cell = static_cast<float>(s.grid.cell_size);
-  const glm::vec3 thin(0.36f, 0.39f, 0.45f), wall(0.75f, 0.78f, 0.85f), ground(0.55f, 0.42f, 0.3f);
+  const glm::vec3 thin(0.36f, 0.39f, 0.45f), wall(0.75f, 0.78f, 0.85f), ground = kGroundColour;
   const glm::vec3 centre = 0.5f * extent;
   auto cellLine = [&](int index, glm::vec3 at, glm::vec3 step, glm::vec3 a, glm::vec3 b,
                       glm::vec3 colour) {
@@ -59,8 +65,10 @@ void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width,
   }
   for (int j = 0; j <= s.grid.cells[1]; ++j) {
     const glm::vec3 a(0, j * cell, 0), b(extent.x, j * cell, 0);
-    if (j == 0 || j == s.grid.cells[1])
-      addLine(out, a, b, j == 0 ? ground : wall);
+    if (j == 0)
+      groundLine(extent, out);
+    else if (j == s.grid.cells[1])
+      addLine(out, a, b, wall);
     else
       cellLine(j, {centre.x, j * cell, 0}, {0, cell, 0}, a, b, thin);
   }

@@ -24,6 +24,10 @@ constexpr float kLineFadePixels = 4;
 void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
                glm::vec3 background, std::vector<float>& out);
 
+// The ground: the domain's bottom edge, y = 0 along x at z = 0 (2D frames draw it with or without
+// the grid). Appends one line segment.
+void groundLine(glm::vec3 extent, std::vector<float>& out);
+
 // 2D: each node's cell (side h, centred on the node, clipped to the domain) shaded by its density
 // against the critical density: the background turning blue below it, amber at or above it.
 // Appends triangles.

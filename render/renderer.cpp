@@ -13,6 +13,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "render/buried_particles.h"
 #include "render/camera.h"
 #include "render/colour.h"
 #include "render/gl_context.h"
@@ -303,21 +304,29 @@ struct Renderer::Gl {
   ShadowMap shadow;
   GLuint sphere_vao = 0, corner_vbo = 0, instance_vbo = 0, line_vao = 0, line_vbo = 0;
   GLuint mesh_vao = 0, mesh_vbo = 0, screen_vao = 0;
-  std::vector<float> instances, lines, cells, meshes;  // per frame, reused
-  GLsizei ground_vertices = 0;                         // the ground leads `meshes` in 3D
+  std::vector<float> instances, lines, cells, meshes;        // per frame, reused
+  std::vector<std::uint32_t> seen_by_camera, seen_by_light;  // 3D: particles not buried
+  GLsizei ground_vertices = 0;                               // the ground leads `meshes` in 3D
+
+  // A run of particles in the instance buffer.
+  struct Particles {
+    GLint first = 0;
+    GLsizei count = 0;
+  };
 
   void drawLines(const View& camera, float marker);
   void drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count);
-  // The particles of `instances`: impostors, or one point sprite each (round_up: sprite sizes
-  // round up, shaders/points.vert).
+  // Particles of the instance buffer: impostors, or one point sprite each (round_up: sprite
+  // sizes round up, shaders/points.vert).
   void drawSpheres(GLuint program, const View& camera, float radius, int viewport_height,
-                   bool sprites, GLsizei count, bool round_up = false);
-  // The particles' centres and colours into the instance buffer.
-  void fillInstances(const Snapshot& s, const RenderSettings& settings);
+                   bool sprites, Particles particles, bool round_up = false);
+  // The particles' centres and colours into the instance buffer: the given ones, in turn.
+  void fillInstances(const Snapshot& s, const RenderSettings& settings,
+                     const std::vector<const std::vector<std::uint32_t>*>& runs);
   // 3D: shadow map, G-buffer, occlusion and lighting passes, into resolve_fbo.
   void renderDeferred(const RenderSettings& settings, const View& camera, const Palette& palette,
                       glm::vec3 extent, float radius, bool sprites, GLsizei mesh_vertices,
-                      GLsizei particles);
+                      Particles seen_by_camera, Particles seen_by_light);
 };
 
 void Renderer::Gl::drawLines(const View& camera, float marker) {
@@ -343,8 +352,9 @@ void Renderer::Gl::drawMeshes(GLuint program, const View& camera, GLint first, G
 }
 
 void Renderer::Gl::drawSpheres(GLuint program, const View& camera, float radius,
-                               int viewport_height, bool sprites, GLsizei count, bool round_up) {
-  if (count == 0) return;
+                               int viewport_height, bool sprites, Particles particles,
+                               bool round_up) {
+  if (particles.count == 0) return;
   setCamera(program, camera);
   setUniform(program, "round_up", round_up ? 1.f : 0.f);
   setUniform(program, "radius", radius);
@@ -355,10 +365,11 @@ void Renderer::Gl::drawSpheres(GLuint program, const View& camera, float radius,
     // One vertex per particle: the per-instance attributes read as per-vertex ones.
     glEnable(GL_PROGRAM_POINT_SIZE);
     for (int a = 1; a <= 2; ++a) glVertexAttribDivisor(a, 0);
-    glDrawArrays(GL_POINTS, 0, count);
+    glDrawArrays(GL_POINTS, particles.first, particles.count);
     for (int a = 1; a <= 2; ++a) glVertexAttribDivisor(a, 1);
   } else {
-    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, count);
+    glDrawArraysInstancedBaseInstance(GL_TRIANGLE_STRIP, 0, 4, particles.count,
+                                      static_cast<GLuint>(particles.first));
   }
 }
 
@@ -438,7 +449,10 @@ Image Renderer::render(const Snapshot& s) {
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
-  if (settings_.show_grid) gridLines(s, extent, camera, w, h, palette.background, g.lines);
+  if (settings_.show_grid)
+    gridLines(s, extent, camera, w, h, palette.background, g.lines);
+  else if (s.grid.dimension == 2)
+    groundLine(extent, g.lines);  // 3D frames have their ground plane
   g.meshes.clear();
   if (s.grid.dimension == 3)
     appendGround(extent, 0.3f * std::max(extent.x, extent.z), palette.ground, g.meshes);
@@ -448,9 +462,9 @@ Image Renderer::render(const Snapshot& s) {
   const GLsizei mesh_vertices = static_cast<GLsizei>(g.meshes.size() / 9);
   glBindBuffer(GL_ARRAY_BUFFER, g.mesh_vbo);
   glBufferData(GL_ARRAY_BUFFER, g.meshes.size() * sizeof(float), g.meshes.data(), GL_STREAM_DRAW);
-  g.fillInstances(s, settings_);
 
   if (s.grid.dimension == 2) {
+    g.fillInstances(s, settings_, {});
     // The report's look: forward shading, 4x MSAA unless the spheres are sprites (llvmpipe's
     // MSAA doubles the cost of a frame of small sprites).
     glBindFramebuffer(GL_FRAMEBUFFER, sprites ? g.resolve_fbo : g.msaa_fbo);
@@ -464,14 +478,24 @@ Image Renderer::render(const Snapshot& s) {
     g.drawMeshes(g.programs.mesh_forward, camera, 0, mesh_vertices);
     glEnable(GL_DEPTH_TEST);
     g.drawSpheres(sprites ? g.programs.point_forward : g.programs.sphere_forward, camera, radius, h,
-                  sprites, s.size());
+                  sprites, {0, s.size()});
     if (!sprites) {
       glBindFramebuffer(GL_READ_FRAMEBUFFER, g.msaa_fbo);
       glBindFramebuffer(GL_DRAW_FRAMEBUFFER, g.resolve_fbo);
       glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
     }
   } else {
-    g.renderDeferred(settings_, camera, palette, extent, radius, sprites, mesh_vertices, s.size());
+    // Particles buried in the snow are left out of the passes that cannot see them.
+    const BuriedParticles buried(s.position, static_cast<float>(spacing), radius);
+    g.seen_by_camera.clear();
+    buried.visibleFromPoint(glm::vec3(glm::inverse(camera.view)[3]), g.seen_by_camera);
+    g.seen_by_light.clear();
+    if (settings_.shadows) buried.visibleFromDirection(key_light, g.seen_by_light);
+    g.fillInstances(s, settings_, {&g.seen_by_camera, &g.seen_by_light});
+    const auto camera_count = static_cast<GLsizei>(g.seen_by_camera.size());
+    g.renderDeferred(settings_, camera, palette, extent, radius, sprites, mesh_vertices,
+                     {0, camera_count},
+                     {camera_count, static_cast<GLsizei>(g.seen_by_light.size())});
   }
 
   // Read back, flipping OpenGL's bottom-up rows.
@@ -486,7 +510,8 @@ Image Renderer::render(const Snapshot& s) {
   return image;
 }
 
-void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settings) {
+void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settings,
+                                 const std::vector<const std::vector<std::uint32_t>*>& runs) {
   Gl& g = *this;
   if (s.size() == 0) return;
   if (settings.color_by == ColorBy::Plastic && static_cast<int>(s.plastic_j.size()) != s.size())
@@ -495,12 +520,16 @@ void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settin
   const ColourRange range = colourRange(settings, s);
   const ColorBy by = settings.color_by == ColorBy::Density && s.density.empty() ? ColorBy::White
                                                                                 : settings.color_by;
-  g.instances.resize(6 * static_cast<size_t>(s.size()));
-  for (int i = 0; i < s.size(); ++i) {
+  g.instances.clear();
+  auto add = [&](int i) {
     const glm::vec3 colour = particleColour(s, i, by, range);
-    std::copy_n(s.position[i].data(), 3, &g.instances[6 * static_cast<size_t>(i)]);
-    std::copy_n(&colour.r, 3, &g.instances[6 * static_cast<size_t>(i) + 3]);
-  }
+    g.instances.insert(g.instances.end(), s.position[i].begin(), s.position[i].end());
+    g.instances.insert(g.instances.end(), {colour.r, colour.g, colour.b});
+  };
+  if (runs.empty())
+    for (int i = 0; i < s.size(); ++i) add(i);
+  for (const std::vector<std::uint32_t>* run : runs)
+    for (std::uint32_t i : *run) add(static_cast<int>(i));
   glBindBuffer(GL_ARRAY_BUFFER, g.instance_vbo);
   glBufferData(GL_ARRAY_BUFFER, g.instances.size() * sizeof(float), g.instances.data(),
                GL_STREAM_DRAW);
@@ -508,7 +537,8 @@ void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settin
 
 void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& camera,
                                   const Palette& palette, glm::vec3 extent, float radius,
-                                  bool sprites, GLsizei mesh_vertices, GLsizei particles) {
+                                  bool sprites, GLsizei mesh_vertices, Particles seen_by_camera,
+                                  Particles seen_by_light) {
   Gl& g = *this;
   const Programs& p = g.programs;
   // Impostor frames are supersampled 2x2 (their anti-aliasing); sprite frames are not (a sprite
@@ -524,7 +554,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
     glViewport(0, 0, light.size, light.size);
     glEnable(GL_DEPTH_TEST);
     glClear(GL_DEPTH_BUFFER_BIT);
-    g.drawSpheres(p.point_depth, light.camera, radius, light.size, true, particles, true);
+    g.drawSpheres(p.point_depth, light.camera, radius, light.size, true, seen_by_light, true);
     g.drawMeshes(p.mesh_depth, light.camera, g.ground_vertices, mesh_vertices - g.ground_vertices);
   }
 
@@ -545,7 +575,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   glDisable(GL_POLYGON_OFFSET_FILL);
   g.drawLines(camera, 0.5f);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
-                particles, true);
+                seen_by_camera, true);
   glDisable(GL_DEPTH_TEST);
 
   // What both screen passes need to see the surface (shaders/surface.glsl).

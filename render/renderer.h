@@ -3,7 +3,8 @@
 // with 4x MSAA. 3D scenes get a perspective view (by default from the front, above and to the
 // right), drawn deferred: a G-buffer of the spheres, ground and colliders, then one lighting pass
 // with a key light and its shadow map, a sky fill and screen-space ambient occlusion. Spheres a
-// few pixels wide are point sprites instead of ray-cast impostors (docs/rendering.md).
+// few pixels wide are point sprites instead of ray-cast impostors; particles buried in packed snow
+// are left out of the passes that cannot see them (docs/rendering.md).
 #pragma once
 
 #include <array>

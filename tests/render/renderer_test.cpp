@@ -91,6 +91,22 @@ TEST(Renderer, EmptySceneShowsOnlyTheGrid) {
   EXPECT_TRUE(isBackground(image, 5, 5)) << "outside the domain";
 }
 
+TEST(Renderer, TwoDimensionalGroundIsDrawnWithoutTheGrid) {
+  RenderSettings settings = testSettings();
+  settings.show_grid = false;
+  Renderer renderer(settings);
+  const Image image = renderer.render(emptyDomain(2));
+  for (double x : {0.005, 0.055, 0.095}) {
+    const auto [gx, gy] = pixelOf(x, 0.0);
+    EXPECT_GT(image.pixel(gx, gy)[0], image.pixel(gx, gy)[2] + 20)
+        << "the ground, brown, at y = 0 and x = " << x;
+  }
+  const auto [lx, ly] = pixelOf(0.05, 0.055);
+  EXPECT_TRUE(isBackground(image, lx, ly)) << "no cell line at x = 0.05 m";
+  const auto [wx, wy] = pixelOf(0.0, 0.06);
+  EXPECT_TRUE(isBackground(image, wx, wy)) << "no wall at x = 0";
+}
+
 double luminance(const std::uint8_t* p) {
   return 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2];
 }

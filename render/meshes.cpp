@@ -54,6 +54,16 @@ void appendSphere(glm::vec3 centre, float radius, glm::vec3 colour, std::vector<
     }
 }
 
+// Every triangle with its own normal: flat shading shows the facets of a coarse mesh as they are.
+void appendTriangles(const TriangleMesh& mesh, glm::vec3 colour, std::vector<float>& out) {
+  for (const auto& [a, b, c] : mesh.triangles) {
+    const glm::vec3 pa = vec(mesh.vertices[a]), pb = vec(mesh.vertices[b]),
+                    pc = vec(mesh.vertices[c]);
+    const glm::vec3 n = glm::normalize(glm::cross(pb - pa, pc - pa));
+    for (const glm::vec3& p : {pa, pb, pc}) appendVertex(out, {p, n, colour});
+  }
+}
+
 // Two unit vectors spanning the plane of unit normal n.
 std::pair<glm::vec3, glm::vec3> tangents(glm::vec3 n) {
   const glm::vec3 helper = std::abs(n.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
@@ -126,6 +136,8 @@ void appendCollider(const SnapshotCollider& c, int dimension, glm::vec3 extent, 
     return;
   }
   if (c.shape == Shape::Box) return appendBox(centre, 0.5f * vec(c.size), colour, out);
+  if (c.shape == Shape::Mesh)
+    return appendTriangles(placed(*c.mesh, {c.position, c.rotation, c.scale}), colour, out);
   if (c.shape == Shape::Sphere)
     return appendSphere(centre, static_cast<float>(c.radius), colour, out);
   // A plane: a square on it, larger than the domain, clipped to the domain's walls.

@@ -21,8 +21,9 @@ void appendVertex(std::vector<float>& out, const MeshVertex& v);
 void appendGround(glm::vec3 extent, float margin, glm::vec3 colour, std::vector<float>& out);
 
 // A collider as triangles, for the domain [0, extent]. 3D: a box's six faces, a sphere's surface,
-// a plane's surface where it crosses the domain. 2D (flat, at z = 0, facing +z): the box's
-// rectangle, the sphere's disc, the region of the domain behind the plane (its solid side).
+// a mesh's triangles, a plane's surface where it crosses the domain. 2D (flat, at z = 0, facing
+// +z): the box's rectangle, the sphere's disc, the region of the domain behind the plane (its solid
+// side).
 void appendCollider(const SnapshotCollider& collider, int dimension, glm::vec3 extent,
                     glm::vec3 colour, std::vector<float>& out);
 

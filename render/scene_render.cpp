@@ -48,6 +48,22 @@ std::optional<ColourRange> physicalColourRange(const Scene& scene, ColorBy by) {
   return std::nullopt;
 }
 
+namespace {
+
+// The lowest and highest corners of a solid collider's bounding box.
+std::array<Vec3, 2> colliderBounds(const ColliderParams& c) {
+  if (c.shape == ColliderShape::Mesh) return c.mesh.placedAt(c.position).bounds();
+  std::array<Vec3, 2> box{};
+  for (int a = 0; a < 3; ++a) {
+    const double half = c.shape == ColliderShape::Sphere ? c.radius : c.size[a] / 2;
+    box[0][a] = c.position[a] - half;
+    box[1][a] = c.position[a] + half;
+  }
+  return box;
+}
+
+}  // namespace
+
 void fitToScene(RenderSettings& settings, const Scene& scene, const Snapshot& first) {
   if (!settings.color_range) settings.color_range = physicalColourRange(scene, settings.color_by);
   if (scene.dimension != 3 || settings.camera.custom) return;
@@ -56,12 +72,8 @@ void fitToScene(RenderSettings& settings, const Scene& scene, const Snapshot& fi
   for (const ColliderParams& c : scene.colliders) {
     if (c.shape == ColliderShape::HalfSpace) continue;
     Bounds solid;
-    for (double sign : {-1.0, 1.0}) {
-      Vec3 corner;
-      for (int a = 0; a < 3; ++a) {
-        const double half = c.shape == ColliderShape::Sphere ? c.radius : c.size[a] / 2;
-        corner[a] = std::clamp(c.position[a] + sign * half, 0.0, extent[a]);
-      }
+    for (Vec3 corner : colliderBounds(c)) {
+      for (int a = 0; a < 3; ++a) corner[a] = std::clamp(corner[a], 0.0, extent[a]);
       solid.add(corner);
     }
     box.include(solid);

@@ -8,6 +8,9 @@ packages=(
   build-essential cmake ninja-build pkg-config clang-format
   # sim/: linear algebra (OpenMP comes with g++)
   libeigen3-dev
+  # sim/geometry/: assimp reads OBJ, STL and PLY meshes; OpenVDB turns a mesh into a signed
+  # distance field (its headers need Boost's)
+  libassimp-dev libopenvdb-dev libboost-dev
   # scene files and the command line
   nlohmann-json3-dev libcli11-dev
   # render/: off-screen OpenGL, maths, image and video files

@@ -5,6 +5,18 @@
 
 namespace snowsim {
 
+namespace {
+
+// A point for the level set of a mesh (meshes are 3D only; a 2D point has z = 0).
+template <int D>
+std::array<double, 3> toArray3(const Vec<D>& r) {
+  std::array<double, 3> p{0, 0, 0};
+  for (int a = 0; a < D; ++a) p[a] = r[a];
+  return p;
+}
+
+}  // namespace
+
 template <int D>
 Vec<D> collideVelocity(const Vec<D>& v, const Vec<D>& n, const Vec<D>& collider_velocity,
                        ColliderType type, Real friction) {
@@ -64,6 +76,8 @@ Real Collider<D>::phi(const Vec<D>& x) const {
       }
       return inside > 0 ? std::sqrt(outside) : inside;
     }
+    case ColliderShape::Mesh:
+      return level_set->phi(toArray3(r));
   }
   return 0;
 }
@@ -87,6 +101,11 @@ Vec<D> Collider<D>::outwardNormal(const Vec<D>& x) const {
         if (q > inside) inside = q, deepest = a;
       }
       if (inside <= 0) n[deepest] = r[deepest] < 0 ? -1 : 1;  // inside: nearest face
+      break;
+    }
+    case ColliderShape::Mesh: {
+      const std::array<double, 3> g = level_set->gradient(toArray3(r));
+      for (int a = 0; a < D; ++a) n[a] = g[a];
       break;
     }
   }
@@ -126,6 +145,10 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
     }
     if (D > dims) c.position[D - 1] = extent[D - 1] / 2;
     c.radius = p.radius;
+    // Once per run: the distance field on voxels of half a cell, a few cells beyond the surface.
+    if (p.shape == ColliderShape::Mesh)
+      c.level_set = std::make_shared<const LevelSet>(p.mesh.placedAt({0, 0, 0}),
+                                                     scene.cell_size / 2, 3 * scene.cell_size);
     c.type = p.type;
     c.friction = p.friction;
     colliders.push_back(c);
@@ -141,12 +164,17 @@ std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, dou
     SnapshotCollider c;
     c.shape = p.shape == ColliderShape::HalfSpace ? Shape::Plane
               : p.shape == ColliderShape::Sphere  ? Shape::Sphere
-                                                  : Shape::Box;
+              : p.shape == ColliderShape::Box     ? Shape::Box
+                                                  : Shape::Mesh;
     c.position = p.position;
     c.normal = p.normal;
     c.radius = p.radius;
     c.size = p.size;
     c.velocity = p.velocity;
+    c.mesh = p.mesh.triangles;
+    c.mesh_file = p.mesh.file;
+    c.rotation = p.mesh.rotation;
+    c.scale = p.mesh.scale;
     if (scene.authored_dimension == 2) {  // extruded along z: through the slab, or flat in 2D
       c.position[2] = dimension == 3 ? extent[2] / 2 : 0;
       c.size[2] = dimension == 3 ? extent[2] : 0;

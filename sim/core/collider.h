@@ -1,13 +1,15 @@
 // Colliders described by a signed distance (Stomakhin et al. 2013, section 8): the domain walls,
-// ground planes, spheres and boxes, each optionally moving with its own velocity. A collision
-// acts on a velocity relative to the collider's (sticky, slip, or separating with Coulomb
+// ground planes, spheres, boxes and closed meshes, each optionally moving with its own velocity. A
+// collision acts on a velocity relative to the collider's (sticky, slip, or separating with Coulomb
 // friction).
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "sim/core/math.h"
 #include "sim/core/snapshot.h"
+#include "sim/geometry/level_set.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
@@ -27,6 +29,7 @@ struct Collider {
   Vec<D> normal = Vec<D>::Zero();    // half space: outward unit normal
   Real radius = 0;
   Vec<D> half_size = Vec<D>::Zero();
+  std::shared_ptr<const LevelSet> level_set;  // mesh (3D): its signed distance about position
   Vec<D> velocity = Vec<D>::Zero();
   ColliderType type = ColliderType::Separating;
   Real friction = 0;

@@ -3,8 +3,11 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "sim/geometry/triangle_mesh.h"
 
 namespace snowsim {
 
@@ -23,13 +26,19 @@ struct GridInfo {
 // A scene collider where it is at the snapshot's time, for drawing (plain data; 2D runs have z = 0
 // and a 2D collider stands for its extrusion along z).
 struct SnapshotCollider {
-  enum class Shape { Plane, Sphere, Box };
+  enum class Shape { Plane, Sphere, Box, Mesh };
   Shape shape = Shape::Plane;
   std::array<double, 3> position{};       // a point of the plane, the sphere's or box's centre (m)
   std::array<double, 3> normal{0, 1, 0};  // plane: outward normal (the solid is behind it)
   double radius = 0;                      // sphere (m)
   std::array<double, 3> size{};           // box extents (m)
   std::array<double, 3> velocity{};       // m/s
+  // Mesh: the file's triangles (shared by every frame), scaled, rotated (degrees about x, then y,
+  // then z) and moved to position; the file is named for run.json.
+  std::shared_ptr<const TriangleMesh> mesh;
+  std::string mesh_file;
+  std::array<double, 3> rotation{};
+  double scale = 1;
 
   // Where the collider is `elapsed` seconds later (colliders move at constant velocity).
   SnapshotCollider movedBy(double elapsed) const {

@@ -117,6 +117,48 @@ Vec3 unitDirection(JsonFields& f, const std::string& key, Vec3 direction) {
   return direction;
 }
 
+// The fields of a mesh: the file (relative to the scene file's folder), its rotation and scale;
+// the file is read and checked here, so a bad mesh stops the scene before anything runs.
+SceneMesh parseSceneMesh(JsonFields& f, const Scene& scene) {
+  if (scene.authored_dimension != 3)
+    f.fail("shape", "\"mesh\" needs a 3D scene (grid.cells with 3 entries)");
+  SceneMesh m;
+  const std::filesystem::path given = f.string("mesh", std::nullopt);
+  if (given.empty()) f.fail("mesh", "must name a mesh file (OBJ, STL or PLY)");
+  m.file = (std::filesystem::path(scene.file).parent_path() / given).lexically_normal().string();
+  m.rotation = toVec3(f.numbers("rotation", std::vector<double>{0, 0, 0}, {3}));
+  m.scale = f.number("scale", 1.0, 0, 1e6, true);
+  try {
+    m.triangles = std::make_shared<const TriangleMesh>(loadTriangleMesh(m.file));
+  } catch (const InputError& e) {
+    f.fail("mesh", e.what());
+  }
+  return m;
+}
+
+// "" when the placed mesh fits in the grid (`inside`: wholly within it; else only no larger than
+// it), else what is wrong.
+std::string meshFitProblem(const SceneMesh& m, const Vec3& position, const Vec3& extent,
+                           bool inside) {
+  const auto [lo, hi] = m.placedAt(position).bounds();
+  std::ostringstream s;
+  for (int a = 0; a < 3; ++a)
+    if (hi[a] - lo[a] > extent[a]) {
+      s << m.file << ": the mesh is larger than the grid: " << hi[a] - lo[a] << " m along "
+        << "xyz"[a] << " at scale " << m.scale << ", the grid spans " << extent[a] << " m";
+      return s.str();
+    }
+  if (!inside) return "";
+  for (int a = 0; a < 3; ++a)
+    if (lo[a] < -1e-12 || hi[a] > extent[a] + 1e-12) {
+      s << m.file << ": the placed mesh reaches outside the grid along axis "
+        << "xyz"[a] << " ([" << lo[a] << ", " << hi[a] << "] m; the grid spans [0, " << extent[a]
+        << "] m)";
+      return s.str();
+    }
+  return "";
+}
+
 DensityHybridParams parseDensityHybrid(const Json* j, const std::string& file) {
   DensityHybridParams p;
   if (!j) return p;
@@ -205,12 +247,19 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   ColliderParams c;
-  const auto shape = f.choice("shape", {"half_space", "sphere", "box"}, std::nullopt);
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box", "mesh"}, std::nullopt);
   c.shape = shape == "half_space" ? ColliderShape::HalfSpace
             : shape == "sphere"   ? ColliderShape::Sphere
-                                  : ColliderShape::Box;
+            : shape == "box"      ? ColliderShape::Box
+                                  : ColliderShape::Mesh;
   c.position = toVec3(f.numbers("position", std::nullopt, dims));
-  if (c.shape == ColliderShape::HalfSpace) {
+  if (c.shape == ColliderShape::Mesh) {
+    c.mesh = parseSceneMesh(f, scene);
+    // A collider may reach beyond the grid, but its distance field spans the whole mesh.
+    if (const std::string problem = meshFitProblem(c.mesh, c.position, scene.extent(), false);
+        !problem.empty())
+      f.fail("scale", problem);
+  } else if (c.shape == ColliderShape::HalfSpace) {
     c.normal = unitDirection(f, "normal", toVec3(f.numbers("normal", std::nullopt, dims)));
   } else if (c.shape == ColliderShape::Sphere) {
     c.radius = f.number("radius", std::nullopt);
@@ -299,14 +348,26 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
   const std::vector<int> dims{scene.authored_dimension};
   Body b;
   b.name = f.string("name", "body" + std::to_string(index));
-  const auto shape = f.choice("shape", {"ball", "box", "half_ball", "points"}, std::nullopt);
+  const auto shape =
+      f.choice("shape", {"ball", "box", "half_ball", "mesh", "points"}, std::nullopt);
   b.shape = shape == "ball"        ? BodyShape::Ball
             : shape == "box"       ? BodyShape::Box
             : shape == "half_ball" ? BodyShape::HalfBall
+            : shape == "mesh"      ? BodyShape::Mesh
                                    : BodyShape::Points;
   if (b.shape == BodyShape::Points) return parsePointsBody(f, b, scene, scene_fields);
-  b.center = toVec3(f.numbers("center", std::nullopt, dims));
-  if (b.shape == BodyShape::Box) {
+  if (b.shape == BodyShape::Mesh) {
+    b.mesh = parseSceneMesh(f, scene);
+    b.center = toVec3(f.numbers("position", std::nullopt, dims));
+    b.angular_velocity = toVec3(f.numbers("angular_velocity", std::vector<double>{0, 0, 0}, {3}));
+  } else {
+    b.center = toVec3(f.numbers("center", std::nullopt, dims));
+  }
+  if (b.shape == BodyShape::Mesh) {
+    if (const std::string problem = meshFitProblem(b.mesh, b.center, scene.extent(), true);
+        !problem.empty())
+      f.fail(problem.find("larger") != std::string::npos ? "scale" : "position", problem);
+  } else if (b.shape == BodyShape::Box) {
     b.size = positiveExtents(f, "size", scene.authored_dimension);
   } else {
     b.radius = f.number("radius", std::nullopt, 0, 1e6, true);
@@ -321,9 +382,9 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
   b.seeding = parseSeeding(f, scene.seeding);
   f.finish();
 
-  // The body's bounding box must lie inside the domain.
+  // The body's bounding box must lie inside the domain (a mesh's was checked above).
   const Vec3 extent = scene.extent();
-  for (int a = 0; a < scene.authored_dimension; ++a) {
+  for (int a = 0; a < scene.authored_dimension && b.shape != BodyShape::Mesh; ++a) {
     const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
     if (b.center[a] - half < -1e-12 || b.center[a] + half > extent[a] + 1e-12) {
       std::ostringstream s;

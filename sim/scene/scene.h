@@ -10,6 +10,7 @@
 
 #include "sim/core/bspline.h"
 #include "sim/core/snapshot.h"
+#include "sim/geometry/triangle_mesh.h"
 #include "sim/mpm/snow_material.h"
 
 namespace snowsim {
@@ -18,7 +19,7 @@ using Vec3 = std::array<double, 3>;
 
 enum class SolverType { DensityHybrid, Mpm };
 // Points: the particles of a PLY file (a frame of a run, or another tool's state), as they are.
-enum class BodyShape { Ball, Box, HalfBall, Points };
+enum class BodyShape { Ball, Box, HalfBall, Mesh, Points };
 // Where a body's particles sit in their lattice cells: at the centres, or each at a random point
 // of its cell (deterministic for the scene's seed), which breaks the lattice's stripes in 3D.
 enum class Seeding { Lattice, Jittered };
@@ -57,7 +58,7 @@ enum class InitialVolume { Lattice, GridDensity };
 // The precision of the MPM state and its step's arithmetic (docs/performance.md weighs them).
 enum class MpmPrecision { Double, Float };
 enum class ColliderType { Sticky, Slip, Separating };
-enum class ColliderShape { HalfSpace, Sphere, Box };
+enum class ColliderShape { HalfSpace, Sphere, Box, Mesh };
 
 struct MpmParams {
   MpmTransfer transfer = MpmTransfer::Mls;
@@ -75,12 +76,27 @@ struct MpmParams {
   double wall_friction = 0.2;
 };
 
+// A closed triangle mesh file placed in the scene (3D scenes): scaled, rotated, then moved to the
+// body's or collider's position (MeshPlacement, sim/geometry/triangle_mesh.h).
+struct SceneMesh {
+  std::string file;  // as resolved against the scene file's folder
+  Vec3 rotation{};   // degrees about x, then y, then z (fixed axes)
+  double scale = 1;
+  std::shared_ptr<const TriangleMesh> triangles;  // as read from the file, checked watertight
+
+  // The mesh scaled and rotated about its origin, then moved to `position`.
+  TriangleMesh placedAt(const Vec3& position) const {
+    return placed(*triangles, {position, rotation, scale});
+  }
+};
+
 struct ColliderParams {
   ColliderShape shape = ColliderShape::HalfSpace;
   Vec3 position{};       // a point of the plane, the sphere's or box's centre (m)
   Vec3 normal{0, 1, 0};  // half space: outward normal (the solid is behind it)
   double radius = 0;     // sphere (m)
   Vec3 size{};           // box extents (m)
+  SceneMesh mesh;        // mesh: its origin at position
   Vec3 velocity{};       // the collider moves with this velocity (m/s)
   ColliderType type = ColliderType::Separating;
   double friction = 0.2;  // Coulomb coefficient
@@ -89,11 +105,14 @@ struct ColliderParams {
 struct Body {
   std::string name;
   BodyShape shape = BodyShape::Ball;
-  Vec3 center{};             // ball and half ball centre, box centre (m)
+  Vec3 center{};             // ball and half ball centre, box centre, mesh origin (m)
   double radius = 0;         // ball and half ball (m)
   Vec3 size{};               // box extents (m)
   Vec3 cut_normal{0, 1, 0};  // half ball: keeps the points with (x - center) . n >= 0
+  SceneMesh mesh;            // mesh
   Vec3 velocity{};           // initial velocity (m/s)
+  // Initial angular velocity (rad/s, mesh bodies): v = velocity + w x (x - centre of mass).
+  Vec3 angular_velocity{};
   // Points: the PLY file (as resolved against the scene's directory) and its particles, read and
   // checked once when the scene is loaded: positions and velocities in the scene's y-up axes, and
   // the masses and J_P when the file has them.

@@ -1,5 +1,7 @@
 // A parsed scene written back as a scene file: every field, defaults included, so that the file
 // parses to the same Scene (run.json records it to reproduce a run).
+#include <filesystem>
+
 #include "sim/scene/json_fields.h"
 #include "sim/scene/scene.h"
 
@@ -56,6 +58,14 @@ Json mpmJson(const MpmParams& p) {
       {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}}};
 }
 
+void writeMesh(const SceneMesh& m, Json& j) {
+  j["shape"] = "mesh";
+  // Absolute: run.json's copy of the scene lies in another folder than the scene file.
+  j["mesh"] = std::filesystem::absolute(m.file).string();
+  j["rotation"] = entries(m.rotation, 3);
+  j["scale"] = m.scale;
+}
+
 Json colliderJson(const ColliderParams& c, int dimension) {
   Json j = {{"position", entries(c.position, dimension)},
             {"velocity", entries(c.velocity, dimension)},
@@ -67,6 +77,8 @@ Json colliderJson(const ColliderParams& c, int dimension) {
   } else if (c.shape == ColliderShape::Sphere) {
     j["shape"] = "sphere";
     j["radius"] = c.radius;
+  } else if (c.shape == ColliderShape::Mesh) {
+    writeMesh(c.mesh, j);
   } else {
     j["shape"] = "box";
     j["size"] = entries(c.size, dimension);
@@ -87,7 +99,12 @@ Json bodyJson(const Body& b, int dimension) {
             {"center", entries(b.center, dimension)},
             {"velocity", entries(b.velocity, dimension)},
             {"density", b.density}};
-  if (b.shape == BodyShape::Box)
+  if (b.shape == BodyShape::Mesh) {
+    writeMesh(b.mesh, j);
+    j["position"] = j["center"];
+    j.erase("center");
+    j["angular_velocity"] = entries(b.angular_velocity, 3);
+  } else if (b.shape == BodyShape::Box)
     j["size"] = entries(b.size, dimension);
   else
     j["radius"] = b.radius;

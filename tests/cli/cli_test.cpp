@@ -681,3 +681,44 @@ TEST(Cli, FigureFindsItsDescriptionsFromAnyDirectory) {
 }
 
 }  // namespace
+
+// A bad mesh, for a body or a collider: exit 2, the mesh file and its problem named, nothing
+// written.
+TEST(Cli, ABadMeshExitsTwoNamingTheFileAndWritesNothing) {
+  const fs::path dir = freshDir("bad_meshes");
+  fs::create_directories(dir);
+  std::ifstream cube(std::string(SNOWSIM_SOURCE_DIR) + "/scenes/meshes/cube.obj");
+  std::string line, open_cube;
+  for (int faces = 0; std::getline(cube, line);)
+    if (line.rfind("f ", 0) != 0 || ++faces < 12) open_cube += line + "\n";
+  std::ofstream(dir / "open.obj") << open_cube;
+  std::ofstream(dir / "empty.stl");
+  std::ofstream(dir / "garbage.ply", std::ios::binary) << std::string("\x01\xfe\x7f garbage", 11);
+  std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n";
+  const std::string drop = "run " + scene("mesh_snow_drop") + " --set bodies.0.mesh=";
+  expectRejected(drop + (dir / "missing.obj").string(), "missing.obj: no such mesh file");
+  expectRejected(drop + (dir / "open.obj").string(), "open.obj: the mesh is not watertight");
+  expectRejected(drop + (dir / "empty.stl").string(), "empty.stl: the file is empty");
+  expectRejected(drop + (dir / "garbage.ply").string(), "garbage.ply: cannot read it as a mesh");
+  expectRejected(drop + (dir / "flat.obj").string(), "flat.obj: triangle 0 is degenerate");
+  expectRejected("run " + scene("mesh_snow_drop") + " --set bodies.0.scale=1",
+                 "torus.stl: the mesh is larger than the grid");
+  expectRejected(
+      "run " + scene("mesh_snow_drop") + " --set colliders.0.mesh=" + (dir / "open.obj").string(),
+      "colliders[0].mesh: " + (dir / "open.obj").string());
+}
+
+// run.json names a mesh collider's file: `snowsim render` reads it again and draws the same frame.
+TEST(Cli, RenderDrawsAMeshColliderAsTheRunDid) {
+  const fs::path out = freshDir("render_mesh");
+  ASSERT_EQ(runSnowsim("run " + scene("mesh_snow_drop") + " -o " + out.string() +
+                       " --set time.duration=0.034 --no-mp4 --width 160 --height 120")
+                .code,
+            0);
+  const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["colliders"][0]["shape"], "mesh");
+  const auto from_run = fileBytes(out / "frame_00001.png");
+  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 160 --height 120").code, 0);
+  EXPECT_EQ(fileBytes(out / "frame_00001.png"), from_run)
+      << "render draws what run drew, the mesh too";
+}

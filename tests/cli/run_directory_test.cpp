@@ -117,7 +117,9 @@ TEST(RunDirectory, RunJsonRecordsWhatReproducesTheRun) {
 TEST(RunDirectory, EveryScenesResolvedFormReadsBackTheSame) {
   for (const auto& entry :
        fs::recursive_directory_iterator(std::string(SNOWSIM_SOURCE_DIR) + "/scenes")) {
-    if (!entry.is_regular_file() || entry.path().filename() == "figures.json") continue;
+    if (!entry.is_regular_file() || entry.path().extension() != ".json" ||
+        entry.path().filename() == "figures.json")
+      continue;
     const snowsim::Scene s = snowsim::loadScene(entry.path().string());
     const auto written = snowsim::sceneToJson(s);
     EXPECT_EQ(snowsim::sceneToJson(snowsim::parseScene(written, "resolved")), written)

@@ -1,0 +1,45 @@
+// The signed distance to a closed triangle mesh, built once with OpenVDB (the mesh to level set
+// conversion Houdini's MPM colliders use) and kept as a dense grid of voxels sampled trilinearly:
+// a read is a few array loads, safe from any thread, and OpenVDB stays inside level_set.cpp.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "sim/geometry/triangle_mesh.h"
+
+namespace snowsim {
+
+class LevelSet {
+ public:
+  // Distances at the corners of voxels of side `voxel_size` (m) covering the mesh's bounds and
+  // `margin` (m) beyond them. The voxels grow when the box would need more than kMaxVoxels.
+  LevelSet(const TriangleMesh& mesh, double voxel_size, double margin);
+
+  static constexpr long kMaxVoxels = 1L << 24;
+
+  // Signed distance at x (m): negative inside. Beyond the box, the distance to the box is added
+  // to the value at its nearest point.
+  double phi(const std::array<double, 3>& x) const;
+  // The gradient of phi at x: the outward normal on the surface (not normalised).
+  std::array<double, 3> gradient(const std::array<double, 3>& x) const;
+
+  double voxelSize() const { return voxel_; }
+
+ private:
+  float at(int i, int j, int k) const {
+    return values_[(static_cast<size_t>(k) * dims_[1] + j) * dims_[0] + i];
+  }
+  struct Position {
+    std::array<double, 3> voxels;  // the nearest point of the box, in voxels from the origin
+    std::array<double, 3> beyond;  // x minus that point (m): zero inside the box
+  };
+  Position locate(const std::array<double, 3>& x) const;
+
+  std::array<double, 3> origin_{};  // the first voxel's position (m)
+  double voxel_ = 0;
+  std::array<int, 3> dims_{};
+  std::vector<float> values_;  // x fastest
+};
+
+}  // namespace snowsim

@@ -78,7 +78,8 @@ class StateReader {
         n > (bytes_.size() - at_) / sizeof(T))
       fail("an array of " + std::to_string(n) + " elements does not fit the state");
     a.resize(n);
-    std::memcpy(static_cast<void*>(a.data()), take(n * sizeof(T)), n * sizeof(T));
+    const char* bytes = take(n * sizeof(T));
+    if (n > 0) std::memcpy(static_cast<void*>(a.data()), bytes, n * sizeof(T));  // empty: null
   }
   // A text of `Length` bytes' length.
   template <class Length>

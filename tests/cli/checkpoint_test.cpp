@@ -144,7 +144,7 @@ TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
 // SIGTERM stops mid-frame at the end of a step; the checkpoint holds that state, and resume lands
 // on the same steps (the last one shortened to the frame's time as before).
 TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
-  // Half a second of snow a frame, some 2000 steps: a stop lands between frames.
+  // Two seconds of snow a frame, some 9000 steps: a stop lands between frames.
   const auto args = [](const fs::path& out, int threads) {
     return std::vector<std::string>{"run",
                                     sceneFile("mpm_reference"),
@@ -153,9 +153,9 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
                                     "--no-png",
                                     "--no-mp4",
                                     "--set",
-                                    "time.duration=1",
+                                    "time.duration=4",
                                     "--set",
-                                    "time.fps=2",
+                                    "time.fps=0.5",
                                     "--checkpoint-minutes",
                                     "0",
                                     "--threads",
@@ -171,7 +171,7 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before the signal";
   const auto stopped = nlohmann::json::parse(std::ifstream(out / "run.json"));
   const double stopped_at = stopped["simulated_time"].get<double>();
-  EXPECT_NE(stopped_at, 0.5 * std::round(2 * stopped_at)) << "stopped at a frame, not between";
+  EXPECT_NE(stopped_at, 2 * std::round(stopped_at / 2)) << "stopped at a frame, not between";
   const auto resumed = runSnowsim("resume " + out.string() + " --threads 1");
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));

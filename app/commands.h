@@ -7,6 +7,7 @@
 namespace snowsim {
 
 void addRunCommand(CLI::App& app);
+void addResumeCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addFigureCommand(CLI::App& app);
 void addDiffCommand(CLI::App& app);

@@ -13,6 +13,8 @@ class FrameSink {
  public:
   virtual ~FrameSink() = default;
   virtual void write(const Snapshot& snapshot) = 0;
+  // Returns once every frame written so far is complete on disk.
+  virtual void flush() {}
   virtual void finish() {}
 };
 

@@ -1,12 +1,20 @@
 #include "app/interrupt.h"
 
+#include <unistd.h>
+
 #include <csignal>
+
+#include "sim/io/files.h"
 
 namespace snowsim {
 
 namespace {
 volatile std::sig_atomic_t received_signal = 0;
 void recordSignal(int sig) {
+  if (received_signal != 0) {  // the second: stop at once, leaving only complete files
+    removeUnfinishedFiles();
+    ::_exit(128 + sig);
+  }
   received_signal = sig;
 }
 }  // namespace

@@ -1,6 +1,7 @@
 // Ctrl-C and SIGTERM during a long run: the run stops at the end of the current step, the sinks
 // finish (the MP4 gets its trailer and still plays) and snowsim exits with 128 + the signal
-// number.
+// number. A second signal ends snowsim at once with that code, after removing the files being
+// written (sim/io/files.h, UnfinishedFile): what is left is complete.
 #pragma once
 
 #include <stdexcept>
@@ -8,7 +9,7 @@
 
 namespace snowsim {
 
-// Installs the SIGINT/SIGTERM handlers, which only record the signal.
+// Installs the SIGINT/SIGTERM handlers: the first only records the signal, the second exits.
 void catchInterrupts();
 
 // The signal received since catchInterrupts(), or 0.

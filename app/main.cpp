@@ -6,6 +6,7 @@
 
 #include "app/commands.h"
 #include "app/interrupt.h"
+#include "app/options.h"
 #include "sim/core/errors.h"
 #include "version.h"
 
@@ -15,7 +16,9 @@ int main(int argc, char** argv) {
       "renders it off-screen into PNG frames, MP4 videos and figure strips."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "snowsim " SNOWSIM_VERSION " (commit " SNOWSIM_COMMIT ")");
+  snowsim::recordCommandLine(argc, argv);
   snowsim::addRunCommand(app);
+  snowsim::addResumeCommand(app);
   snowsim::addRenderCommand(app);
   snowsim::addFigureCommand(app);
   snowsim::addDiffCommand(app);

@@ -5,6 +5,20 @@
 
 namespace snowsim {
 
+namespace {
+std::vector<std::string> command_line;
+}  // namespace
+
+void recordCommandLine(int argc, char** argv) {
+  command_line.assign(argv, argv + argc);
+}
+
+std::vector<std::string> argumentsAfter(const std::string& subcommand) {
+  const auto at = std::find(command_line.begin(), command_line.end(), subcommand);
+  return at == command_line.end() ? std::vector<std::string>()
+                                  : std::vector(at + 1, command_line.end());
+}
+
 void addThreadsOption(CLI::App& command, int& threads) {
   const auto check = [](std::string& text) -> std::string {
     const bool digits =

@@ -2,10 +2,16 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 namespace snowsim {
+
+// The command line as main() received it, for a run to record; the arguments after the
+// subcommand `name` in it.
+void recordCommandLine(int argc, char** argv);
+std::vector<std::string> argumentsAfter(const std::string& subcommand);
 
 // --threads N: the MPM solver's threads, 1 to 1024; `threads` stays 0 (the OpenMP default) when
 // the option is not given.

@@ -7,6 +7,11 @@ namespace snowsim {
 Progress::Progress(int frames, double duration, bool terminal, std::FILE* out)
     : frames_(frames), duration_(duration), terminal_(terminal), out_(out) {}
 
+void Progress::resumedAt(const Simulation& simulation) {
+  steps_then_ = steps_at_start_ = simulation.steps();
+  time_then_ = time_at_start_ = simulation.time();
+}
+
 std::string Progress::line(int frame, const Simulation& simulation) {
   const long steps = simulation.steps();
   const double time = simulation.time(), wall = elapsed();
@@ -14,13 +19,14 @@ std::string Progress::line(int frame, const Simulation& simulation) {
   steps_then_ = steps;
   time_then_ = time;
   char text[200];
-  int n =
-      std::snprintf(text, sizeof text, "frame %d/%d  t = %.3f / %.3f s  %ld steps, %.0f a second",
-                    frame, frames_, time, duration_, steps, wall > 0 ? steps / wall : 0.0);
+  int n = std::snprintf(
+      text, sizeof text, "frame %d/%d  t = %.3f / %.3f s  %ld steps, %.0f a second", frame, frames_,
+      time, duration_, steps, wall > 0 ? double(steps - steps_at_start_) / wall : 0.0);
   if (dt_ > 0) n += std::snprintf(text + n, sizeof text - n, "  dt %.1e s", dt_);
   // The rest at the simulated-per-wall rate so far: a rough guess while the step size changes.
-  if (time > 0 && time < duration_)
-    std::snprintf(text + n, sizeof text - n, "  ETA %.0f s", (duration_ - time) * wall / time);
+  if (time > time_at_start_ && time < duration_)
+    std::snprintf(text + n, sizeof text - n, "  ETA %.0f s",
+                  (duration_ - time) * wall / (time - time_at_start_));
   return text;
 }
 

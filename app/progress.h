@@ -15,6 +15,8 @@ class Progress {
   // frames: the last frame's number; duration: the simulated seconds the run ends at.
   Progress(int frames, double duration, bool terminal, std::FILE* out = stderr);
 
+  // The run resumed from a checkpoint: rates count from the simulation's state now.
+  void resumedAt(const Simulation& simulation);
   // Between steps: redraws the terminal line if a quarter of a second has passed.
   void step(const Simulation& simulation);
   // After frame `frame` was written.
@@ -40,6 +42,8 @@ class Progress {
   // Where the last line was taken: the step size is the simulated time per step since then.
   long steps_then_ = 0;
   double time_then_ = 0;
+  long steps_at_start_ = 0;  // where this process started: resumed, the checkpoint's
+  double time_at_start_ = 0;
   double dt_ = 0;
 };
 

@@ -156,6 +156,15 @@ void RenderSink::write(const Snapshot& snapshot) {
   writer_.write(std::move(png_path), std::move(image));  // encoded while the next frame runs
 }
 
+void RenderSink::addToVideo(Image image) {
+  writer_.write("", std::move(image));
+}
+
+void RenderSink::flush() {
+  const StageClock::Scope time(clock_, "wait for encoding");
+  writer_.finish();
+}
+
 void RenderSink::finish() {
   const StageClock::Scope time(clock_, "wait for encoding");
   writer_.finish();

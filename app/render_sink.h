@@ -69,6 +69,9 @@ class RenderSink final : public FrameSink {
   RenderSink(const RenderSettings& settings, std::string png_dir, const std::string& mp4_path,
              const VideoSettings& video, StageClock* clock = nullptr);
   void write(const Snapshot& snapshot) override;
+  // An image already drawn, into the video only (resume replays a run's earlier frames).
+  void addToVideo(Image image);
+  void flush() override;
   void finish() override;
 
  private:

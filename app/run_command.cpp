@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -17,10 +18,12 @@
 #include "app/progress.h"
 #include "app/quality.h"
 #include "app/render_sink.h"
+#include "app/run_checkpoint.h"
 #include "app/run_directory.h"
 #include "app/scale.h"
 #include "app/step_watch.h"
 #include "render/colour.h"
+#include "render/image.h"
 #include "render/scene_render.h"
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
@@ -49,6 +52,9 @@ struct RunOptions {
   bool z_up = false;       // --z-up: PLY and VDB turned to z up, (x, y, z) -> (x, -z, y)
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
+  int checkpoint_every = 0;       // frames between checkpoints; 0: by wall time only
+  double checkpoint_minutes = 5;  // wall time between checkpoints; 0: by frames only
+  std::vector<std::string> args;  // the command line after `run`, which resume parses again
 };
 
 // Writes frame_NNNNN.EXT per frame with a writer of (path, snapshot, up axis): PLY or VDB.
@@ -114,7 +120,7 @@ void recordRendering(nlohmann::json& summary, const RenderSettings& render, cons
     summary["color"]["range"] = {render.color_range->low, render.color_range->high};
 }
 
-void run(const RunOptions& options) {
+Scene resolvedScene(const RunOptions& options) {
   // Read and checked once, with the user's --set; the quality level (for the scene's solver and
   // dimension) then leaves alone what --set gave.
   checkQualityLevel(options.quality);
@@ -123,6 +129,22 @@ void run(const RunOptions& options) {
   Scene scene = loadScene(options.scene, overrides);
   applyQuality(options.quality, overrides, scene);
   if (options.scale != 1) applyScale(options.scale, overrides, scene);
+  return scene;
+}
+
+// The frames an interrupted run wrote, into the video anew: a resumed run's MP4 holds each frame
+// once. They are read back from the PNGs, which it must have.
+void replayFrames(const std::string& dir, int count, RenderSink& sink) {
+  for (int frame = 0; frame < count; ++frame) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/frame_%05d.png", frame);
+    sink.addToVideo(readPng(dir + name));
+  }
+}
+
+// run, or resume from `saved` (the scene and state of a checkpoint of options.out).
+void run(const RunOptions& options, const SavedRun* saved = nullptr) {
+  Scene scene = saved ? saved->scene : resolvedScene(options);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -136,7 +158,16 @@ void run(const RunOptions& options) {
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
   if (options.estimate_only) return estimateOnly(scene, options.threads);
   const std::string video_name = scene.name + ".mp4";
-  prepareRunDirectory(options.out, video_name, options.overwrite);
+  if (saved && options.render.mp4 && !options.render.png)
+    throw InputError(saved->file +
+                     ": the run writes an MP4 but no PNG frames, from which resume "
+                     "would rebuild the video's first frames; a run to be resumed with --mp4 "
+                     "keeps its PNGs");
+  const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
+  if (saved)
+    prepareOutputDirectory(options.out);
+  else
+    prepareRunDirectory(options.out, video_name, options.overwrite);
   const auto start = std::chrono::steady_clock::now();
   StageClock clock;  // this thread's stages; the solver times its own
   std::unique_ptr<Simulation> simulation;
@@ -144,27 +175,45 @@ void run(const RunOptions& options) {
   {
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads);
-    fitToScene(render, scene, simulation->snapshot(0));
+    fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
+    if (saved) simulation->loadState(saved->solver_state, saved->file);
     if (options.ply)
       sinks.push_back(
           std::make_unique<FileSink>(options.out, "ply", writePly, up, "write PLY", clock));
     if (options.vdb)
       sinks.push_back(
           std::make_unique<FileSink>(options.out, "vdb", writeVdb, up, "write VDB", clock));
-    if (options.render.png || options.render.mp4)
-      sinks.push_back(std::make_unique<RenderSink>(
+    if (options.render.png || options.render.mp4) {
+      auto render_sink = std::make_unique<RenderSink>(
           render, options.render.png ? options.out : "",
-          options.render.mp4 ? options.out + "/" + video_name : "", video, &clock));
+          options.render.mp4 ? options.out + "/" + video_name : "", video, &clock);
+      if (options.render.mp4) replayFrames(options.out, first_frame, *render_sink);
+      sinks.push_back(std::move(render_sink));
+    }
   }
+  // A second signal ends the run at once: the unfinished video goes with it.
+  std::optional<UnfinishedFile> partial_video;
+  if (options.render.mp4) partial_video.emplace(options.out + "/" + video_name + ".part");
 
   catchInterrupts();
   const int frames = scene.frameCount();
   Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
+  if (saved) progress.resumedAt(*simulation);
   const StepLimit start_limit = simulation->stepLimit();
   CostEstimate estimate(scene, simulation->particleCount(), start_limit);
-  StepWatch step_watch(scene, estimate.initialStep(), start_limit);
+  StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
+                               : StepWatch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());
-  int written = 0;
+  int written = first_frame;
+  // The run's own state beside the solver's; next_frame: the first frame not yet written.
+  CheckpointCadence cadence(options.checkpoint_every, options.checkpoint_minutes);
+  const auto checkpoint = [&](int next_frame) {
+    const StageClock::Scope time(&clock, "checkpoint");
+    nlohmann::json state = {
+        {"args", options.args}, {"next_frame", next_frame}, {"step_watch", step_watch.state()}};
+    if (options.render.png || options.render.mp4) recordRendering(state, render, scene);
+    saveCheckpoint(options.out, scene, *simulation, state);
+  };
   // A signal stops the run at the end of the current step: the frame it interrupts is not
   // written, every earlier one is complete.
   const auto interrupted = [] { return interruptSignal() != 0; };
@@ -174,7 +223,8 @@ void run(const RunOptions& options) {
     progress.step(*simulation);
     return interrupted();
   };
-  for (int frame = 0; frame <= frames && !interrupted(); ++frame, ++written) {
+  int frame = first_frame;
+  for (; frame <= frames && !interrupted(); ++frame, ++written) {
     if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), betweenSteps)) break;
     Snapshot snapshot;
     {
@@ -183,8 +233,17 @@ void run(const RunOptions& options) {
     }
     for (auto& sink : sinks) sink->write(snapshot);
     progress.frame(frame, *simulation);
+    if (frame < frames && cadence.due(written + 1)) {
+      for (auto& sink : sinks) sink->flush();  // a checkpoint follows only complete frames
+      checkpoint(frame + 1);
+    }
   }
   for (auto& sink : sinks) sink->finish();
+  // Stopped short: the state after the last step, from which resume lands on the same steps.
+  if (written <= frames)
+    checkpoint(frame);
+  else
+    removeCheckpoints(options.out);
   progress.done();
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -203,6 +262,7 @@ void run(const RunOptions& options) {
   if (options.scale != 1) summary["scale"] = options.scale;
   summary["up_axis"] = options.z_up ? "z" : "y";
   if (options.vdb) summary["vdb"] = true;
+  if (saved) summary["resumed_at_frame"] = first_frame;
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},
@@ -236,21 +296,20 @@ void run(const RunOptions& options) {
                                " frames; what was written is complete");
 }
 
-}  // namespace
-
-void addRunCommand(CLI::App& app) {
-  auto options = std::make_shared<RunOptions>();
-  CLI::App* cmd = app.add_subcommand("run", "Simulate a scene and write its frames to a directory");
-  cmd->add_option("scene", options->scene, "Scene file (JSON), e.g. scenes/snowball_drop.json")
-      ->required()
-      ->check(CLI::ExistingFile);
+// The options of `snowsim run`; resume parses a run's recorded command line with them, its scene
+// file no longer needed (the checkpoint holds the scene as run).
+void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
+  CLI::Option* scene =
+      cmd->add_option("scene", options->scene, "Scene file (JSON), e.g. scenes/snowball_drop.json")
+          ->required();
+  if (scene_must_exist) scene->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", options->out,
                   "Output directory (created if missing); one holding an earlier run's files is "
                   "refused unless --overwrite")
       ->capture_default_str();
   cmd->add_flag("--overwrite", options->overwrite,
-                "Remove an earlier run's frames, run.json and video from the output directory "
-                "first (no other file)");
+                "Remove an earlier run's frames, run.json, video and checkpoints from the output "
+                "directory first (no other file)");
   cmd->add_option("--set", options->overrides,
                   "Override a scene field by its path, e.g. --set time.dt=0.01 "
                   "--set bodies.0.velocity=[1,0] or bodies[0].velocity=[1,0] (repeatable)");
@@ -280,6 +339,45 @@ void addRunCommand(CLI::App& app) {
                 "up, as snowsim): "
                 "(x, y, z) -> (x, -z, y), a rotation about x (snowsim render reads them back)");
   options->render.addTo(*cmd);
+  cmd->add_option("--checkpoint-every", options->checkpoint_every,
+                  "Write a checkpoint (checkpoint.snowsim) every N frames, besides every "
+                  "--checkpoint-minutes; `snowsim resume` continues from it")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--checkpoint-minutes", options->checkpoint_minutes,
+                  "Write a checkpoint at the first frame after this much wall time (0: only "
+                  "every --checkpoint-every frames and when stopped by a signal)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
+// snowsim resume DIR: the run in DIR continued from its checkpoint with its own command line.
+void resume(const std::string& dir, int threads) {
+  const SavedRun saved = loadCheckpoint(dir);
+  RunOptions options;
+  CLI::App parser;
+  addRunOptions(parser.add_subcommand("run"), &options, false);
+  std::vector<std::string> args;
+  try {
+    args = saved.run_state["args"].get<std::vector<std::string>>();
+    std::vector<std::string> reversed(args.rbegin(), args.rend());
+    reversed.push_back("run");
+    parser.parse(reversed);
+  } catch (const std::exception& e) {
+    throw InputError(saved.file + ": the run's command line it records does not parse (" +
+                     e.what() + ")");
+  }
+  options.args = args;
+  options.out = dir;
+  if (threads > 0) options.threads = threads;
+  run(options, &saved);
+}
+
+}  // namespace
+
+void addRunCommand(CLI::App& app) {
+  auto options = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand("run", "Simulate a scene and write its frames to a directory");
+  addRunOptions(cmd, options.get(), true);
   cmd->footer(
       "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density plastic_j mass "
       "pscale id; docs/scene-format.md, \"Output files\"), frame_NNNNN.png "
@@ -292,9 +390,33 @@ void addRunCommand(CLI::App& app) {
       "snowsim version and commit, the threads).\n"
       "Before the run starts it prints the particles, the grid and the particle-steps of the "
       "duration, and after the first steps an estimate of their time.\n"
+      "A run writes checkpoint.snowsim every few minutes and when stopped by a signal; "
+      "`snowsim resume DIR` continues it to the frames an uninterrupted run writes.\n"
       "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
-      "Ctrl-C/SIGTERM (the frames and video written so far are complete).");
-  cmd->callback([options] { run(*options); });
+      "Ctrl-C/SIGTERM (the frames and video written so far are complete; a second signal stops "
+      "at once, leaving only complete files).");
+  cmd->callback([options] {
+    options->args = argumentsAfter("run");
+    run(*options);
+  });
+}
+
+void addResumeCommand(CLI::App& app) {
+  auto dir = std::make_shared<std::string>();
+  auto threads = std::make_shared<int>(0);
+  CLI::App* cmd = app.add_subcommand(
+      "resume", "Continue a stopped or killed run from the checkpoint in its output directory");
+  cmd->add_option("dir", *dir, "The run's output directory (its --out)")->required();
+  addThreadsOption(*cmd, *threads);
+  cmd->footer(
+      "Reads DIR/checkpoint.snowsim, which `snowsim run` writes every --checkpoint-minutes or "
+      "--checkpoint-every frames and when stopped by Ctrl-C/SIGTERM, and continues the run with "
+      "the scene and options it was started with: its frames are byte for byte those an "
+      "uninterrupted run writes, the MP4 is rebuilt from the PNG frames already written. A "
+      "missing, truncated or corrupted checkpoint, one of another snowsim version or of "
+      "another scene than the run's is refused with exit code 2, before anything is written.\n"
+      "Exit codes: as `snowsim run`.");
+  cmd->callback([dir, threads] { resume(*dir, *threads); });
 }
 
 }  // namespace snowsim

@@ -1,11 +1,31 @@
 #include "app/step_watch.h"
 
 #include <cstdio>
+#include <limits>
 
 namespace snowsim {
 
 StepWatch::StepWatch(const Scene& scene, double initial_step, const StepLimit& initial_limit)
     : scene_(scene), initial_step_(initial_step), initial_limit_(initial_limit) {}
+
+nlohmann::json StepWatch::state() const {
+  const StepLimit& l = initial_limit_;
+  return {{"initial_step", initial_step_},
+          {"initial_limit", {l.step, l.particle_speed, l.wave_speed, l.plastic_j, l.hardening}},
+          {"record", record_}};
+}
+
+StepWatch::StepWatch(const Scene& scene, const nlohmann::json& state) : scene_(scene) {
+  // JSON has no infinity: an unlimited step was written as null.
+  const auto number = [](const nlohmann::json& j) {
+    return j.is_null() ? std::numeric_limits<double>::infinity() : j.get<double>();
+  };
+  initial_step_ = number(state.at("initial_step"));
+  const nlohmann::json& l = state.at("initial_limit");
+  initial_limit_ = {number(l.at(0)), number(l.at(1)), number(l.at(2)), number(l.at(3)),
+                    number(l.at(4))};
+  record_ = state.at("record");
+}
 
 std::string StepWatch::check(const Simulation& simulation) {
   if (!record_.is_null() || simulation.steps() == 0 ||

@@ -23,6 +23,10 @@ class StepWatch {
   // initial_step: the first step of the run; the limit of the state it starts from.
   StepWatch(const Scene& scene, double initial_step, const StepLimit& initial_limit);
 
+  // What a checkpoint keeps of the watch, and the watch continued from it (resume).
+  nlohmann::json state() const;
+  StepWatch(const Scene& scene, const nlohmann::json& state);
+
   // Between steps: the warning, the first time the smallest step chosen fell below
   // collapse_fraction of the initial step; empty otherwise.
   std::string check(const Simulation& simulation);

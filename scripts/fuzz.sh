@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of fuzz/ with clang into build-fuzz/ and runs one (scene, ply, png)
-# or all of them for SECONDS each, or until RUNS executions if given first.
+# Builds the libFuzzer targets of fuzz/ with clang into build-fuzz/ and runs one (scene, ply, png,
+# checkpoint) or all of them for SECONDS each, or until RUNS executions if given first.
 # Usage: scripts/fuzz.sh [TARGET|all] [SECONDS] [RUNS]
 # The seed corpus (fuzz/corpus/TARGET) is copied into build-fuzz/corpus/TARGET, which grows; a crash
 # is written to build-fuzz/crashes/TARGET/ and fails the script. Each run ends with libFuzzer's
@@ -11,9 +11,9 @@ target=${1:-all}
 seconds=${2:-60}
 runs=${3:--1}
 case "$target" in
-  all) targets=(scene ply png) ;;
-  scene | ply | png) targets=("$target") ;;
-  *) echo "fuzz.sh: unknown target $target; allowed: scene, ply, png, all" >&2; exit 2 ;;
+  all) targets=(scene ply png checkpoint) ;;
+  scene | ply | png | checkpoint) targets=("$target") ;;
+  *) echo "fuzz.sh: unknown target $target; allowed: scene, ply, png, checkpoint, all" >&2; exit 2 ;;
 esac
 
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++ \

@@ -77,6 +77,16 @@ class SimulationOf final : public Simulation {
     stages.push_back({stages.empty() ? "step" : "rest of the step", std::max(0.0, rest)});
     return stages;
   }
+  std::string saveState() const override {
+    StateWriter out;
+    solver_->saveState(out);
+    return out.bytes();
+  }
+  void loadState(std::string_view bytes, const std::string& file) override {
+    StateReader in(bytes, file);
+    solver_->loadState(in);
+    in.finish();
+  }
 
  private:
   Scene scene_;

@@ -4,6 +4,8 @@
 
 #include <functional>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/core/krylov_result.h"
@@ -36,6 +38,12 @@ class Simulation {
   // Where the steps' wall time went: the solver's stages, then "rest of the step" (the step's
   // time in no stage; "step" for a solver that times no stages). Their sum is the steps' time.
   virtual std::vector<StageSeconds> stepStages() const = 0;
+
+  // The solver's whole state as bytes (sim/io/checkpoint.h), and back into a simulation made from
+  // the same scene: it then steps on exactly as the saved one would have. loadState throws
+  // InputError naming `file` when the bytes do not fit this simulation.
+  virtual std::string saveState() const = 0;
+  virtual void loadState(std::string_view bytes, const std::string& file) = 0;
 };
 
 // Builds the particles and the solver the scene asks for, in the scene's dimension. `threads`

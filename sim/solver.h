@@ -13,6 +13,7 @@
 #include "sim/core/particles.h"
 #include "sim/core/snapshot.h"
 #include "sim/core/stage_clock.h"
+#include "sim/io/checkpoint.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
@@ -88,7 +89,26 @@ class Solver {
   // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
   virtual void describe(Snapshot& snapshot) const = 0;
 
+  // Everything later steps depend on, for a checkpoint: the clock, the step sizes chosen, and
+  // the solver's own state. loadState restores it into a solver built from the same scene, which
+  // then takes the very steps the saved one would have; throws InputError (naming the file the
+  // reader reads) when the state does not fit this solver.
+  void saveState(StateWriter& out) const {
+    out.value(steps_);
+    out.value(time_);
+    out.value(chosen_);
+    saveSolverState(out);
+  }
+  void loadState(StateReader& in) {
+    in.value(steps_);
+    in.value(time_);
+    in.value(chosen_);
+    loadSolverState(in);
+  }
+
  protected:
+  virtual void saveSolverState(StateWriter& out) const = 0;
+  virtual void loadSolverState(StateReader& in) = 0;
   virtual void beforeFirstStep() {}
   virtual void advance(Real dt) = 0;
   // Throws SimulationError when the state after a step of dt cannot go on.

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -12,8 +13,44 @@
 
 namespace snowsim {
 
+namespace {
+
+// The files being written, in fixed slots a signal handler can read without locks: a slot's path
+// is complete while its state is kReady.
+constexpr int kSlots = 32;
+constexpr int kFree = 0, kFilling = 1, kReady = 2;
+struct Slot {
+  std::atomic<int> state{kFree};
+  char path[4096];
+};
+Slot slots[kSlots];
+
+}  // namespace
+
+UnfinishedFile::UnfinishedFile(const std::string& path) : slot_(-1) {
+  if (path.size() >= sizeof slots[0].path) return;
+  for (int i = 0; i < kSlots; ++i) {
+    int expected = kFree;
+    if (!slots[i].state.compare_exchange_strong(expected, kFilling)) continue;
+    std::memcpy(slots[i].path, path.c_str(), path.size() + 1);
+    slots[i].state.store(kReady);
+    slot_ = i;
+    return;
+  }
+}
+
+UnfinishedFile::~UnfinishedFile() {
+  if (slot_ >= 0) slots[slot_].state.store(kFree);
+}
+
+void removeUnfinishedFiles() {
+  for (Slot& slot : slots)
+    if (slot.state.load() == kReady) ::unlink(slot.path);
+}
+
 void writeFileAtomically(const std::string& path, const std::string& bytes) {
   const std::string temporary = path + ".tmp";
+  const UnfinishedFile unfinished(temporary);
   // POSIX calls rather than a stream: a failed write's errno (ENOSPC, EIO, ...) is the message.
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");

@@ -495,6 +495,35 @@ const Particles<D>& MpmSolver<D, T>::particles() const {
   }
 }
 
+template <int D, class T>
+void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
+  saveParticleArrays(out, particles_);
+  for (const Collider<D>& c : colliders_) out.value(c.position);  // moved by the steps
+  schedule_.saveState(out);
+  for (const Real r :
+       {fastest_speed_, fastest_signal_, energy_, initial_energy_, limit_when_exceeded_})
+    out.value(r);
+  out.value(finite_);
+  out.value(step_when_exceeded_);
+  out.value(solves_);
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::loadSolverState(StateReader& in) {
+  loadParticleArrays(in, particles_);
+  for (Collider<D>& c : colliders_) in.value(c.position);
+  schedule_.loadState(in);
+  for (Real* r :
+       {&fastest_speed_, &fastest_signal_, &energy_, &initial_energy_, &limit_when_exceeded_})
+    in.value(*r);
+  in.value(finite_);
+  in.value(step_when_exceeded_);
+  in.value(solves_);
+  // Each step writes the grid nodes near the snow and leaves the rest zero, as here.
+  fields_.resize(grid_.nodeCount());
+  converted_at_step_ = -1;
+}
+
 template class MpmSolver<2, double>;
 template class MpmSolver<3, double>;
 template class MpmSolver<2, float>;

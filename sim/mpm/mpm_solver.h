@@ -82,6 +82,8 @@ class MpmSolver final : public Solver<D> {
   void beforeFirstStep() override;
   void advance(Real dt) override;
   void checkDivergence(Real dt) const override;
+  void saveSolverState(StateWriter& out) const override;
+  void loadSolverState(StateReader& in) override;
   template <class Transfer, class Kernel>
   void stepWith(T dt);
 

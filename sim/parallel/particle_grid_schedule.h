@@ -21,6 +21,7 @@
 
 #include "sim/core/grid.h"
 #include "sim/core/stage_clock.h"
+#include "sim/io/checkpoint.h"
 #include "sim/parallel/loop_runner.h"
 #include "sim/parallel/row_binning.h"
 #include "sim/parallel/team.h"
@@ -115,6 +116,23 @@ class ParticleGridSchedule final : public LoopRunner {
   template <class F>
   void forActiveNodes(const GridGeometry<D>& grid, F&& f);
   void run(int count, void (*body)(void*, int, int), void* context) override;
+
+  // What decides the next steps' order of summation, for a checkpoint: the binning, and when the
+  // particles were last stored in sorted order. loadState restores it into a schedule of the
+  // same grid and particle count (InputError when it does not fit).
+  void saveState(StateWriter& out) const {
+    binning_.saveState(out);
+    out.value(binned_since_stored_);
+    out.value(stored_step_);
+    out.value(steps_);
+  }
+  void loadState(StateReader& in) {
+    binning_.loadState(in);
+    in.value(binned_since_stored_);
+    in.value(stored_step_);
+    in.value(steps_);
+    unsummed_scatter_ = false;
+  }
 
   // How many times the particles were binned into rows. 2D: again whenever one had moved more
   // than drift_cells beyond its row's cells; 3D: every step.

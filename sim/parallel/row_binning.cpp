@@ -197,6 +197,40 @@ typename RowBinning<D>::RowCells RowBinning<D>::rowCellsAt(int o) const {
   return cells;
 }
 
+template <int D>
+void RowBinning<D>::saveState(StateWriter& out) const {
+  out.array(order_);
+  out.array(row_start_);
+  out.value(binned_first_block_);
+  out.value(binned_last_block_);
+  out.value(must_bin_);
+  out.value(binnings_);
+  out.value(active_);
+  out.value(updated_);
+}
+
+template <int D>
+void RowBinning<D>::loadState(StateReader& in) {
+  in.array(order_, particles_);
+  in.array(row_start_, static_cast<long>(row_start_.size()));
+  for (const int p : order_)
+    if (p < 0 || p >= particles_) in.fail("a binned particle " + std::to_string(p));
+  for (int r = 0; r < rows(); ++r)
+    if (row_start_[r] < 0 || row_start_[r] > row_start_[r + 1] || row_start_[r + 1] > particles_)
+      in.fail("the rows' particles");
+  in.value(binned_first_block_);
+  in.value(binned_last_block_);
+  in.value(must_bin_);
+  in.value(binnings_);
+  in.value(active_);
+  in.value(updated_);
+  for (const NodeBox<D>* box : {&active_, &updated_})
+    for (int a = 0; a < D; ++a)
+      if (box->lo[a] < 0 || box->hi[a] < 0 || box->lo[a] > grid_.nodes[a] ||
+          box->hi[a] > grid_.nodes[a])
+        in.fail("the active grid nodes");
+}
+
 template class RowBinning<2>;
 template class RowBinning<3>;
 template void RowBinning<2>::bin(Team&, const WorkShares&, const std::vector<Vec<2, double>>&);

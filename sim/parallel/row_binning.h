@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "sim/core/grid.h"
+#include "sim/io/checkpoint.h"
 #include "sim/parallel/team.h"
 #include "sim/parallel/work_shares.h"
 
@@ -47,6 +48,9 @@ class RowBinning {
   // Set when a particle pass found a particle beyond its row's cells.
   void particlesLeftTheirRows() { must_bin_ = true; }
   long binnings() const { return binnings_; }
+  // The binning as it stands, for a checkpoint, and back (InputError when it does not fit).
+  void saveState(StateWriter& out) const;
+  void loadState(StateReader& in);
 
   // The rows of part `part`, [first, last); row r's particles are sorted(o) for o in
   // [rowStart(r), rowStart(r + 1)); the colour of row r.

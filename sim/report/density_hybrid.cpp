@@ -245,6 +245,23 @@ template void equaliseTowardsPacked<2>(const GridGeometry<2>&, const std::vector
                                        const std::vector<Vec<2>>&, std::vector<Vec<2>>&);
 template void equaliseTowardsPacked<3>(const GridGeometry<3>&, const std::vector<Real>&, Real,
                                        const std::vector<Vec<3>>&, std::vector<Vec<3>>&);
+template <int D>
+void DensityHybridSolver<D>::saveSolverState(StateWriter& out) const {
+  saveParticleArrays(out, particles_);
+  out.value(critical_density_);
+  out.value(fastest_speed_);
+  out.value(widest_crossing_);
+}
+
+template <int D>
+void DensityHybridSolver<D>::loadSolverState(StateReader& in) {
+  // The grid fields are rasterised anew by every step.
+  loadParticleArrays(in, particles_);
+  in.value(critical_density_);
+  in.value(fastest_speed_);
+  in.value(widest_crossing_);
+}
+
 template class DensityHybridSolver<2>;
 template class DensityHybridSolver<3>;
 

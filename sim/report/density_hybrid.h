@@ -52,6 +52,8 @@ class DensityHybridSolver final : public Solver<D> {
  private:
   void advance(Real dt) override;
   void checkDivergence(Real dt) const override;
+  void saveSolverState(StateWriter& out) const override;
+  void loadSolverState(StateReader& in) override;
   bool isWallNode(const IVec<D>& i, int axis) const;
 
   DensityHybridParams params_;

@@ -30,6 +30,7 @@ using snowsim_test::freshDir;
 using snowsim_test::Result;
 using snowsim_test::runCommand;
 using snowsim_test::runSnowsim;
+using snowsim_test::startSnowsim;
 
 std::string scene(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
@@ -379,21 +380,6 @@ TEST(Cli, RunEncodesItsFramesIntoAnMp4ThatFfprobeReads) {
   EXPECT_EQ(video.height, 240);
   EXPECT_EQ(video.frames, 11);  // 0.2 s at 50 frames a second, and the first frame
   EXPECT_FALSE(fs::exists(out / "snowball_drop.mp4.part"));
-}
-
-// Starts `snowsim ARGS...` in a child process, its stderr discarded; a test signals and reaps it.
-pid_t startSnowsim(std::vector<std::string> args) {
-  args.insert(args.begin(), SNOWSIM_BINARY);
-  std::vector<char*> argv;
-  for (std::string& arg : args) argv.push_back(arg.data());
-  argv.push_back(nullptr);
-  const pid_t child = fork();
-  if (child == 0) {
-    freopen("/dev/null", "w", stderr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
 }
 
 // After `path` exists, one more second, then the signal: returns the seconds until the child

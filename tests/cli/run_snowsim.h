@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace snowsim_test {
 
@@ -29,6 +30,21 @@ inline Result runCommand(const std::string& command_line) {
 
 inline Result runSnowsim(const std::string& args) {
   return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
+}
+
+// Starts `snowsim ARGS...` in a child process, its stderr discarded; a test signals and reaps it.
+inline pid_t startSnowsim(std::vector<std::string> args) {
+  args.insert(args.begin(), SNOWSIM_BINARY);
+  std::vector<char*> argv;
+  for (std::string& arg : args) argv.push_back(arg.data());
+  argv.push_back(nullptr);
+  const pid_t child = fork();
+  if (child == 0) {
+    freopen("/dev/null", "w", stderr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
 }
 
 // An empty path under the temporary directory, private to this test process.

@@ -9,6 +9,7 @@
 
 #include "render/image.h"
 #include "sim/core/errors.h"
+#include "sim/io/checkpoint.h"
 #include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/scene.h"
@@ -34,6 +35,20 @@ void expectReadOrRefused(const fs::path& file, Read read) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
   }
+}
+
+// A checkpoint and its solver state read as fuzz/checkpoint_fuzzer.cpp reads them: an empty
+// array once reached memcpy with a null pointer.
+TEST(ReaderRegressions, CheckpointFiles) {
+  for (const fs::path& file : regressions("checkpoint"))
+    expectReadOrRefused(file, [](const std::string& path) {
+      const Checkpoint c = readCheckpoint(path);
+      StateReader in(c.solver_state, path);
+      std::vector<double> array;
+      in.value<long>();
+      in.array(array);
+      in.array(array, 3);
+    });
 }
 
 TEST(ReaderRegressions, PlyFiles) {

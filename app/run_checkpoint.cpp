@@ -1,0 +1,103 @@
+#include "app/run_checkpoint.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/core/errors.h"
+#include "sim/io/checkpoint.h"
+#include "sim/scene/json_fields.h"
+#include "version.h"
+
+namespace snowsim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::uint32_t scalarBytes(const Scene& scene) {
+  return scene.solver == SolverType::Mpm && scene.mpm.precision == MpmPrecision::Float ? 4 : 8;
+}
+
+std::uint64_t hashOf(const nlohmann::json& resolved_scene) {
+  return fnv1a(resolved_scene.dump());
+}
+
+}  // namespace
+
+std::string checkpointPath(const std::string& dir) {
+  return dir + "/checkpoint.snowsim";
+}
+
+bool CheckpointCadence::due(int frames_written) {
+  const bool by_count = every_frames_ > 0 && frames_written % every_frames_ == 0;
+  const bool by_time =
+      minutes_ > 0 && std::chrono::duration<double>(Clock::now() - last_).count() >= 60 * minutes_;
+  if (by_count || by_time) last_ = Clock::now();
+  return by_count || by_time;
+}
+
+std::uint64_t sceneHash(const Scene& scene) {
+  return hashOf(sceneToJson(scene));
+}
+
+void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation& simulation,
+                    nlohmann::json run_state) {
+  run_state["scene"] = sceneToJson(scene);
+  run_state["scene_file"] = scene.file;
+  Checkpoint checkpoint;
+  checkpoint.header.dimension = static_cast<std::uint32_t>(scene.dimension);
+  checkpoint.header.scalar_bytes = scalarBytes(scene);
+  checkpoint.header.scene_hash = sceneHash(scene);
+  checkpoint.header.snowsim_version = SNOWSIM_VERSION;
+  checkpoint.run_state = run_state.dump();
+  checkpoint.solver_state = simulation.saveState();
+  writeCheckpoint(checkpointPath(dir), checkpoint);
+}
+
+SavedRun loadCheckpoint(const std::string& dir) {
+  SavedRun saved;
+  saved.file = checkpointPath(dir);
+  if (!fs::exists(saved.file))
+    throw InputError(saved.file + ": no checkpoint to resume from" +
+                     (fs::exists(dir + "/run.json") ? " (run.json is there: the run ended)"
+                                                    : " (is " + dir + " a run's --out?)"));
+  Checkpoint checkpoint = readCheckpoint(saved.file);
+  const auto refuse = [&](const std::string& problem) {
+    return InputError(saved.file + ": " + problem);
+  };
+  if (checkpoint.header.snowsim_version != SNOWSIM_VERSION)
+    throw refuse("written by snowsim " + checkpoint.header.snowsim_version + "; this is snowsim " +
+                 SNOWSIM_VERSION + ", whose steps may differ: resume it with that version");
+  saved.run_state = nlohmann::json::parse(checkpoint.run_state, nullptr, false);
+  if (!saved.run_state.is_object() || !saved.run_state.contains("scene") ||
+      !saved.run_state["scene_file"].is_string() || !saved.run_state["args"].is_array() ||
+      !saved.run_state["next_frame"].is_number_integer())
+    throw refuse("its run state is not what snowsim writes");
+  try {
+    saved.scene = parseScene(saved.run_state["scene"], saved.run_state["scene_file"]);
+  } catch (const InputError& e) {
+    throw refuse(std::string("its scene does not load: ") + e.what());
+  }
+  if (sceneHash(saved.scene) != checkpoint.header.scene_hash ||
+      static_cast<int>(checkpoint.header.dimension) != saved.scene.dimension ||
+      checkpoint.header.scalar_bytes != scalarBytes(saved.scene))
+    throw refuse("its state is of another scene than the one it records");
+  const int next_frame = saved.run_state["next_frame"].get<int>();
+  if (next_frame < 0 || next_frame > saved.scene.frameCount())
+    throw refuse("its next frame, " + std::to_string(next_frame) + ", is not one of the run's");
+  // A run stopped by a signal has a run.json: it must be the same run's.
+  std::ifstream summary_file(dir + "/run.json");
+  const auto summary = nlohmann::json::parse(summary_file, nullptr, false);
+  if (summary.is_object() && summary.contains("resolved_scene") &&
+      hashOf(summary["resolved_scene"]) != checkpoint.header.scene_hash)
+    throw refuse("of another scene than " + dir + "/run.json records (" +
+                 summary.value("scene", std::string("?")) + "); resume only the run it belongs to");
+  saved.solver_state = std::move(checkpoint.solver_state);
+  return saved;
+}
+
+void removeCheckpoints(const std::string& dir) {
+  for (const char* suffix : {"", ".prev"}) fs::remove(checkpointPath(dir) + suffix);
+}
+
+}  // namespace snowsim

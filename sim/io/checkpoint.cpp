@@ -1,0 +1,181 @@
+#include "sim/io/checkpoint.h"
+
+#include "sim/io/files.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <array>
+#include <bit>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace snowsim {
+
+// The arrays are written as the machine holds them; the format says little-endian.
+static_assert(std::endian::native == std::endian::little,
+              "checkpoints assume a little-endian host");
+
+namespace {
+
+constexpr std::string_view kMagic = "SNOWCKPT";
+
+std::array<std::uint32_t, 256> crcTable() {
+  std::array<std::uint32_t, 256> table{};
+  for (std::uint32_t n = 0; n < 256; ++n) {
+    std::uint32_t c = n;
+    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    table[n] = c;
+  }
+  return table;
+}
+
+// Appends the bytes of a value; a length-prefixed text.
+template <class T>
+void put(std::string& out, T v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <class Length>
+void putText(std::string& out, std::string_view text) {
+  put(out, static_cast<Length>(text.size()));
+  out.append(text);
+}
+
+// Throws InputError naming the file, after removing `temporary` when given.
+[[noreturn]] void failWrite(const std::string& path, int error, const std::string& temporary) {
+  if (!temporary.empty()) ::unlink(temporary.c_str());
+  throw InputError(path + ": writing the checkpoint failed (" + std::strerror(error) + ")");
+}
+
+void syncDirectory(const std::string& path) {
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;  // the rename is done; a directory that cannot be opened cannot be synced
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
+
+std::uint32_t crc32(std::string_view bytes, std::uint32_t crc) {
+  static const std::array<std::uint32_t, 256> table = crcTable();
+  crc = ~crc;
+  for (const char b : bytes) crc = table[(crc ^ static_cast<unsigned char>(b)) & 0xFF] ^ (crc >> 8);
+  return ~crc;
+}
+
+std::uint64_t fnv1a(std::string_view bytes) {
+  std::uint64_t hash = 0xcbf29ce484222325ull;
+  for (const char b : bytes) hash = (hash ^ static_cast<unsigned char>(b)) * 0x100000001b3ull;
+  return hash;
+}
+
+const char* StateReader::take(std::size_t n) {
+  if (n > bytes_.size() - at_) fail("it ends in the middle of the state");
+  const char* p = bytes_.data() + at_;
+  at_ += n;
+  return p;
+}
+
+void StateReader::finish() const {
+  if (at_ != bytes_.size())
+    fail(std::to_string(bytes_.size() - at_) + " bytes are left over after the state");
+}
+
+void StateReader::fail(const std::string& problem) const {
+  throw InputError(file_ + ": not a checkpoint of this run's state (" + problem + ")");
+}
+
+std::string encodeCheckpoint(const Checkpoint& c) {
+  std::string out(kMagic);
+  put(out, kCheckpointFormat);
+  put(out, c.header.dimension);
+  put(out, c.header.scalar_bytes);
+  put(out, c.header.scene_hash);
+  putText<std::uint32_t>(out, c.header.snowsim_version);
+  putText<std::uint32_t>(out, c.run_state);
+  putText<std::uint64_t>(out, c.solver_state);
+  put(out, crc32(out));
+  return out;
+}
+
+Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
+  const auto bad = [&](const std::string& problem) {
+    return InputError(file + ": " + problem + "; resume needs an intact checkpoint");
+  };
+  if (bytes.size() < kMagic.size() || bytes.substr(0, kMagic.size()) != kMagic)
+    throw bad("not a snowsim checkpoint (no SNOWCKPT at its start)");
+  StateReader in(bytes.substr(kMagic.size()), file);
+  try {
+    const auto format = in.value<std::uint32_t>();
+    if (format != kCheckpointFormat)
+      throw bad("a checkpoint of format " + std::to_string(format) +
+                "; this snowsim reads format " + std::to_string(kCheckpointFormat));
+  } catch (const InputError&) {
+    if (bytes.size() < kMagic.size() + 4) throw bad("truncated (it ends after its magic)");
+    throw;
+  }
+  if (bytes.size() < kMagic.size() + 8) throw bad("truncated (it ends in its header)");
+  std::uint32_t stored_crc;
+  std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
+  if (crc32(bytes.substr(0, bytes.size() - 4)) != stored_crc)
+    throw bad("truncated or corrupted (its CRC-32 does not match its contents)");
+  Checkpoint c;
+  try {
+    in.value(c.header.dimension);
+    in.value(c.header.scalar_bytes);
+    in.value(c.header.scene_hash);
+    c.header.snowsim_version = in.text<std::uint32_t>();
+    c.run_state = in.text<std::uint32_t>();
+    c.solver_state = in.text<std::uint64_t>();
+    in.value<std::uint32_t>();  // the CRC, checked above
+    in.finish();
+  } catch (const InputError& e) {
+    throw bad(std::string("its layout is broken: ") + e.what());
+  }
+  if (c.header.dimension != 2 && c.header.dimension != 3)
+    throw bad("dimension " + std::to_string(c.header.dimension) + "; allowed: 2, 3");
+  if (c.header.scalar_bytes != 4 && c.header.scalar_bytes != 8)
+    throw bad(std::to_string(c.header.scalar_bytes) + "-byte scalars; allowed: 4, 8");
+  return c;
+}
+
+void writeCheckpoint(const std::string& path, const Checkpoint& checkpoint) {
+  const std::string bytes = encodeCheckpoint(checkpoint);
+  const std::string temporary = path + ".tmp";
+  const UnfinishedFile unfinished(temporary);
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) failWrite(temporary, errno, "");
+  const char* data = bytes.data();
+  std::size_t left = bytes.size();
+  int error = 0;
+  while (left > 0 && error == 0) {
+    const ssize_t written = ::write(fd, data, left);
+    if (written < 0 && errno != EINTR) error = errno;
+    if (written > 0) data += written, left -= static_cast<std::size_t>(written);
+  }
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  if (error != 0) failWrite(temporary, error, temporary);
+  // The earlier checkpoint stays as .prev: path is complete at every moment of the rename.
+  const std::string previous = path + ".prev";
+  ::unlink(previous.c_str());
+  if (::link(path.c_str(), previous.c_str()) != 0 && errno != ENOENT)
+    failWrite(previous, errno, temporary);
+  if (::rename(temporary.c_str(), path.c_str()) != 0) failWrite(path, errno, temporary);
+  syncDirectory(path);
+}
+
+Checkpoint readCheckpoint(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the checkpoint (" + std::strerror(errno) + ")");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read the checkpoint");
+  return decodeCheckpoint(bytes.str(), path);
+}
+
+}  // namespace snowsim

@@ -1,0 +1,309 @@
+// Checkpoints and `snowsim resume`, as a user meets them: a run killed at any moment and resumed
+// ends with the very frames of an uninterrupted run; a damaged or foreign checkpoint is refused
+// before anything is written; a full disk keeps the last checkpoint.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "sim/io/checkpoint.h"
+#include "tests/cli/run_snowsim.h"
+
+namespace fs = std::filesystem;
+using snowsim_test::freshDir;
+using snowsim_test::runSnowsim;
+using snowsim_test::startSnowsim;
+
+namespace {
+
+std::string sceneFile(const std::string& name) {
+  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
+}
+
+std::string bytesOf(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Every frame file of a run directory, by name, with its bytes.
+std::map<std::string, std::string> frames(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("frame_", 0) == 0) files[name] = bytesOf(entry.path());
+  }
+  return files;
+}
+
+// Waits (up to a minute) until `path` exists, then `delay` more; false if it never appeared.
+bool waitFor(const fs::path& path, std::chrono::milliseconds delay = {}) {
+  for (int i = 0; i < 30000 && !fs::exists(path); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::this_thread::sleep_for(delay);
+  return fs::exists(path);
+}
+
+int finish(pid_t child, int sig) {
+  kill(child, sig);
+  int status = 0;
+  waitpid(child, &status, 0);
+  return status;
+}
+
+std::string frameName(int frame, const char* extension) {
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%05d.%s", frame, extension);
+  return name;
+}
+
+struct Case {
+  std::string name, scene;
+  std::vector<std::string> settings;  // options that keep it to seconds
+};
+
+// Tiny runs of each method and dimension, many steps per frame so that a kill lands mid-frame.
+const Case kCases[] = {
+    {"report_2d",
+     "snowball_drop",
+     {"--set", "time.duration=0.4", "--set", "time.fps=25", "--set", "time.dt=0.0001"}},
+    {"mpm_2d", "mpm_reference", {"--set", "time.duration=0.16", "--set", "time.fps=50"}},
+    {"mpm_3d",
+     "mpm_snowball_wall",
+     {"--scale", "0.5", "--set", "time.duration=0.1", "--set", "time.fps=100"}},
+};
+
+std::vector<std::string> runArgs(const Case& c, const fs::path& out, int threads) {
+  std::vector<std::string> args = {"run",
+                                   sceneFile(c.scene),
+                                   "-o",
+                                   out.string(),
+                                   "--width",
+                                   "48",
+                                   "--height",
+                                   "32",
+                                   "--no-mp4",
+                                   "--threads",
+                                   std::to_string(threads),
+                                   "--checkpoint-every",
+                                   "1"};
+  args.insert(args.end(), c.settings.begin(), c.settings.end());
+  return args;
+}
+
+std::string commandLine(const std::vector<std::string>& args) {
+  std::string line;
+  for (const std::string& a : args) line += " '" + a + "'";
+  return line;
+}
+
+}  // namespace
+
+// Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
+// frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
+// uninterrupted run's.
+TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
+  for (const Case& c : kCases) {
+    const fs::path whole = freshDir("whole_" + c.name);
+    const auto reference = runSnowsim(commandLine(runArgs(c, whole, 1)).substr(1));
+    ASSERT_EQ(reference.code, 0) << reference.output;
+    const auto expected = frames(whole);
+    ASSERT_GT(expected.size(), 8u);
+    EXPECT_FALSE(fs::exists(whole / "checkpoint.snowsim")) << "a complete run keeps none";
+    for (int threads : {1, 2})
+      for (const auto& [after_frame, delay_ms] : {std::pair{1, 0}, {3, 7}}) {
+        SCOPED_TRACE(c.name + ", " + std::to_string(threads) + " threads, killed after frame " +
+                     std::to_string(after_frame) + " + " + std::to_string(delay_ms) + " ms");
+        const fs::path out = freshDir("killed_" + c.name);
+        const pid_t child = startSnowsim(runArgs(c, out, threads));
+        ASSERT_TRUE(
+            waitFor(out / frameName(after_frame, "png"), std::chrono::milliseconds(delay_ms)));
+        finish(child, SIGKILL);
+        ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim"));
+        ASSERT_NE(frames(out).size(), expected.size()) << "killed too late to test anything";
+        const auto resumed =
+            runSnowsim("resume " + out.string() + " --threads " + std::to_string(threads));
+        ASSERT_EQ(resumed.code, 0) << resumed.output;
+        EXPECT_EQ(frames(out), expected);
+        EXPECT_FALSE(fs::exists(out / "checkpoint.snowsim"));
+      }
+  }
+}
+
+// SIGTERM stops mid-frame at the end of a step; the checkpoint holds that state, and resume lands
+// on the same steps (the last one shortened to the frame's time as before).
+TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
+  // Two seconds of snow a frame, some 9000 steps: a stop lands between frames.
+  const auto args = [](const fs::path& out, int threads) {
+    return std::vector<std::string>{"run",
+                                    sceneFile("mpm_reference"),
+                                    "-o",
+                                    out.string(),
+                                    "--no-png",
+                                    "--no-mp4",
+                                    "--set",
+                                    "time.duration=4",
+                                    "--set",
+                                    "time.fps=0.5",
+                                    "--checkpoint-minutes",
+                                    "0",
+                                    "--threads",
+                                    std::to_string(threads)};
+  };
+  const fs::path whole = freshDir("whole_sigterm");
+  ASSERT_EQ(runSnowsim(commandLine(args(whole, 1)).substr(1)).code, 0);
+  const fs::path out = freshDir("sigterm");
+  const pid_t child = startSnowsim(args(out, 2));
+  ASSERT_TRUE(waitFor(out / frameName(0, "ply"), std::chrono::milliseconds(200)));
+  const int status = finish(child, SIGTERM);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before the signal";
+  const auto stopped = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  const double stopped_at = stopped["simulated_time"].get<double>();
+  EXPECT_NE(stopped_at, 2 * std::round(stopped_at / 2)) << "stopped at a frame, not between";
+  const auto resumed = runSnowsim("resume " + out.string() + " --threads 1");
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(frames(out), frames(whole));
+  const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["frames"], 3);
+  EXPECT_EQ(summary["steps"], nlohmann::json::parse(std::ifstream(whole / "run.json"))["steps"]);
+  EXPECT_EQ(summary["resumed_at_frame"], stopped["frames"]);
+  EXPECT_FALSE(summary.contains("interrupted_by_signal"));
+}
+
+// The MP4 of a killed and resumed run holds every frame once: ffprobe counts as many as PNGs.
+TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
+  const fs::path out = freshDir("video");
+  std::vector<std::string> args = runArgs(kCases[0], out, 1);
+  std::erase(args, std::string("--no-mp4"));
+  const pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / frameName(4, "png")));
+  finish(child, SIGKILL);
+  ASSERT_FALSE(fs::exists(out / "snowball_drop.mp4"));
+  const auto resumed = runSnowsim("resume " + out.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  int pngs = 0;
+  for (const auto& [name, bytes] : frames(out)) pngs += name.ends_with(".png");
+  const auto probe = snowsim_test::runCommand(
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames "
+      "-of csv=p=0 " +
+      (out / "snowball_drop.mp4").string());
+  EXPECT_EQ(std::stoi(probe.output), pngs) << probe.output;
+  EXPECT_EQ(pngs, 11);
+}
+
+// A checkpoint that is truncated, corrupted, of another format or snowsim version, or of another
+// scene: exit 2, a message naming it, and not a byte of the run's frames changed.
+TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
+  const fs::path out = freshDir("damaged");
+  const pid_t child = startSnowsim(runArgs(kCases[0], out, 1));
+  ASSERT_TRUE(waitFor(out / frameName(2, "png")));
+  finish(child, SIGKILL);
+  const fs::path file = out / "checkpoint.snowsim";
+  const std::string good = bytesOf(file);
+  const snowsim::Checkpoint decoded = snowsim::decodeCheckpoint(good, "good");
+  const auto frames_before = frames(out);
+
+  std::string corrupted = good;
+  corrupted[corrupted.size() / 2] ^= 0x10;
+  std::string other_format = good;
+  other_format[8] = 9;  // the format version follows the magic
+  snowsim::Checkpoint other_version = decoded;
+  other_version.header.snowsim_version = "0.0.1";
+  snowsim::Checkpoint other_scene = decoded;
+  other_scene.header.scene_hash ^= 1;
+  const std::pair<std::string, std::string> cases[] = {
+      {good.substr(0, good.size() / 3), "truncated"},
+      {good.substr(0, 10), "truncated"},
+      {corrupted, "corrupted"},
+      {"{\"not\": \"a checkpoint\"}", "not a snowsim checkpoint"},
+      {other_format, "format 9"},
+      {snowsim::encodeCheckpoint(other_version), "written by snowsim 0.0.1"},
+      {snowsim::encodeCheckpoint(other_scene), "another scene"},
+  };
+  for (const auto& [bytes, problem] : cases) {
+    SCOPED_TRACE(problem);
+    std::ofstream(file, std::ios::binary) << bytes;
+    const auto r = runSnowsim("resume " + out.string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(file.string() + ": "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(problem), std::string::npos) << r.output;
+    EXPECT_EQ(frames(out), frames_before);
+  }
+  fs::remove(file);
+  const auto missing = runSnowsim("resume " + out.string());
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.output.find("no checkpoint"), std::string::npos) << missing.output;
+
+  // Another run's checkpoint in a directory whose run.json records its own scene.
+  const fs::path other = freshDir("damaged_other");
+  const pid_t stopped = startSnowsim(runArgs(kCases[1], other, 1));
+  ASSERT_TRUE(waitFor(other / frameName(1, "png")));
+  finish(stopped, SIGTERM);
+  ASSERT_TRUE(fs::exists(other / "run.json"));
+  std::ofstream(other / "checkpoint.snowsim", std::ios::binary) << good;
+  const auto foreign = runSnowsim("resume " + other.string());
+  EXPECT_EQ(foreign.code, 2) << foreign.output;
+  EXPECT_NE(foreign.output.find("of another scene than " + other.string() + "/run.json"),
+            std::string::npos)
+      << foreign.output;
+}
+
+// The disk fills up mid-run as the next checkpoint is written (its temporary file a link to
+// /dev/full): a message naming the file, exit 2, the earlier checkpoint intact, and resuming from
+// it (with room again) ends with the uninterrupted run's frames.
+TEST(Checkpoint, AFullDiskKeepsTheLastCheckpoint) {
+  const Case& c = kCases[0];
+  const fs::path whole = freshDir("full_whole");
+  ASSERT_EQ(runSnowsim(commandLine(runArgs(c, whole, 1)).substr(1)).code, 0);
+  const fs::path out = freshDir("full");
+  const pid_t child = startSnowsim(runArgs(c, out, 1));
+  ASSERT_TRUE(waitFor(out / "checkpoint.snowsim"));
+  const fs::path temporary = out / "checkpoint.snowsim.tmp";
+  std::error_code ec;
+  for (int i = 0; i < 1000; ++i) {  // between two checkpoints' writes
+    fs::create_symlink("/dev/full", temporary, ec);
+    if (!ec) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_FALSE(ec) << ec.message();
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  EXPECT_FALSE(fs::exists(fs::symlink_status(temporary))) << "the failed temporary is removed";
+  const auto resumed = runSnowsim("resume " + out.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(frames(out), frames(whole));
+}
+
+// A second signal stops at once: exit 128 + signal, no temporary or partial file left behind.
+TEST(Checkpoint, ASecondSignalStopsAtOnceLeavingOnlyCompleteFiles) {
+  const fs::path out = freshDir("second_signal");
+  std::vector<std::string> args = runArgs(kCases[2], out, 1);
+  std::erase(args, std::string("--no-mp4"));
+  args.insert(args.end(), {"--set", "time.duration=100"});
+  const pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / frameName(1, "png")));
+  kill(child, SIGINT);
+  const int status = finish(child, SIGINT);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGINT);
+  for (const auto& entry : fs::directory_iterator(out)) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_FALSE(name.ends_with(".tmp") || name.ends_with(".part")) << name;
+  }
+}

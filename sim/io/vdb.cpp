@@ -8,6 +8,7 @@
 
 #include "sim/core/bspline.h"
 #include "sim/core/errors.h"
+#include "sim/io/files.h"
 
 namespace snowsim {
 
@@ -75,6 +76,7 @@ void writeVdb(const std::string& path, const Snapshot& s, UpAxis up) {
   }
 
   const std::string temporary = path + ".tmp";
+  const UnfinishedFile unfinished(temporary);  // a second signal removes it
   try {
     openvdb::io::File file(temporary);
     file.write(grids);

@@ -116,10 +116,14 @@ void referenceStep(ReferenceState<D>& s, Real dt) {
     }
     for (const Collider<D>& c : s.colliders) c.collide(s.x[p], s.v[p]);  // step 9, section 8
     s.x[p] += dt * s.v[p];                                               // step 10
-    for (const Collider<D>& c : s.colliders) c.pushOut(s.x[p]);
-    s.x[p] = s.x[p].cwiseMax(Vec<D>::Zero()).cwiseMin(s.grid.extent());  // stays in the domain
   }
-  for (Collider<D>& c : s.colliders) c.advance(dt);
+  // The moved particles leave the colliders where these are at the end of the step.
+  s.time += dt;
+  placeColliders(s.colliders, s.time);
+  for (Vec<D>& x : s.x) {
+    for (const Collider<D>& c : s.colliders) c.pushOut(x);
+    x = x.cwiseMax(Vec<D>::Zero()).cwiseMin(s.grid.extent());  // stays in the domain
+  }
 }
 
 template ReferenceState<2> makeReferenceState<2>(const Scene&, const Particles<2>&);

@@ -198,24 +198,62 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   return m;
 }
 
+// A rotation (degrees) or angular velocity (degrees/s): a number in 2D (about z), x, y, z in 3D.
+Vec3 parseRotation(JsonFields& f, const std::string& key, int dimension) {
+  if (dimension == 2) return {0, 0, f.number(key, 0.0)};
+  return toVec3(f.numbers(key, std::vector<double>(3, 0.0), {3}));
+}
+
+std::vector<ColliderKey> parseKeyframes(const Json& keys, const JsonFields& collider,
+                                        const Scene& scene) {
+  const std::vector<int> dims{scene.authored_dimension};
+  std::vector<ColliderKey> out;
+  if (keys.empty()) collider.fail("keyframes", "must hold at least one key");
+  for (size_t i = 0; i < keys.size(); ++i) {
+    JsonFields k(keys[i], collider.fieldPath("keyframes") + "[" + std::to_string(i) + "]",
+                 scene.file);
+    ColliderKey key;
+    key.time = k.number("time", std::nullopt, 0);
+    if (!out.empty() && !(key.time > out.back().time))
+      k.fail("time", "must be later than the key before (" + std::to_string(out.back().time) +
+                         " s); keys are in time order");
+    key.position = toVec3(k.numbers("position", std::nullopt, dims));
+    key.rotation = parseRotation(k, "rotation", scene.authored_dimension);
+    k.finish();
+    out.push_back(key);
+  }
+  return out;
+}
+
 ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   ColliderParams c;
-  const auto shape = f.choice("shape", {"half_space", "sphere", "box"}, std::nullopt);
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box", "drum"}, std::nullopt);
   c.shape = shape == "half_space" ? ColliderShape::HalfSpace
             : shape == "sphere"   ? ColliderShape::Sphere
+            : shape == "drum"     ? ColliderShape::Drum
                                   : ColliderShape::Box;
-  c.position = toVec3(f.numbers("position", std::nullopt, dims));
+  if (const Json* keys = f.array("keyframes", false)) {
+    for (const char* motion : {"position", "velocity", "rotation", "angular_velocity"})
+      if (f.has(motion)) f.fail(motion, "cannot be given with keyframes; the keys set the motion");
+    c.keyframes = parseKeyframes(*keys, f, scene);
+    c.position = c.keyframes.front().position;
+    c.rotation = c.keyframes.front().rotation;
+  } else {
+    c.position = toVec3(f.numbers("position", std::nullopt, dims));
+    c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+    c.rotation = parseRotation(f, "rotation", scene.authored_dimension);
+    c.angular_velocity = parseRotation(f, "angular_velocity", scene.authored_dimension);
+  }
   if (c.shape == ColliderShape::HalfSpace) {
     c.normal = unitDirection(f, "normal", toVec3(f.numbers("normal", std::nullopt, dims)));
-  } else if (c.shape == ColliderShape::Sphere) {
+  } else if (c.shape == ColliderShape::Box) {
+    c.size = positiveExtents(f, "size", scene.authored_dimension);
+  } else {
     c.radius = f.number("radius", std::nullopt);
     if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
-  } else {
-    c.size = positiveExtents(f, "size", scene.authored_dimension);
   }
-  c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
   c.type = parseColliderType(f, "type", "separating");
   c.friction = f.number("friction", c.friction, 0, 1e3);
   f.finish();

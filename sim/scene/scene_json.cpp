@@ -56,20 +56,32 @@ Json mpmJson(const MpmParams& p) {
       {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}}};
 }
 
+// A rotation or angular velocity as the file gives it: z's alone in 2D.
+Json rotationJson(const Vec3& degrees, int dimension) {
+  return dimension == 2 ? Json(degrees[2]) : entries(degrees, 3);
+}
+
 Json colliderJson(const ColliderParams& c, int dimension) {
-  Json j = {{"position", entries(c.position, dimension)},
-            {"velocity", entries(c.velocity, dimension)},
-            {"type", colliderTypeName(c.type)},
-            {"friction", c.friction}};
+  Json j = {{"type", colliderTypeName(c.type)}, {"friction", c.friction}};
+  if (c.keyframes.empty()) {
+    j["position"] = entries(c.position, dimension);
+    j["velocity"] = entries(c.velocity, dimension);
+    j["rotation"] = rotationJson(c.rotation, dimension);
+    j["angular_velocity"] = rotationJson(c.angular_velocity, dimension);
+  }
+  for (const ColliderKey& k : c.keyframes)
+    j["keyframes"].push_back({{"time", k.time},
+                              {"position", entries(k.position, dimension)},
+                              {"rotation", rotationJson(k.rotation, dimension)}});
   if (c.shape == ColliderShape::HalfSpace) {
     j["shape"] = "half_space";
     j["normal"] = entries(c.normal, dimension);
-  } else if (c.shape == ColliderShape::Sphere) {
-    j["shape"] = "sphere";
-    j["radius"] = c.radius;
-  } else {
+  } else if (c.shape == ColliderShape::Box) {
     j["shape"] = "box";
     j["size"] = entries(c.size, dimension);
+  } else {
+    j["shape"] = c.shape == ColliderShape::Sphere ? "sphere" : "drum";
+    j["radius"] = c.radius;
   }
   return j;
 }

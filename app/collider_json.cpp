@@ -1,5 +1,8 @@
 #include "app/collider_json.h"
 
+#include <algorithm>
+
+#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 
 namespace snowsim {
@@ -7,9 +10,21 @@ namespace snowsim {
 namespace {
 
 using Shape = SnapshotCollider::Shape;
+constexpr std::array kShapes{Shape::Plane, Shape::Sphere, Shape::Box, Shape::Drum};
 
 const char* shapeName(Shape shape) {
-  return shape == Shape::Plane ? "plane" : shape == Shape::Sphere ? "sphere" : "box";
+  return shape == Shape::Plane    ? "plane"
+         : shape == Shape::Sphere ? "sphere"
+         : shape == Shape::Drum   ? "drum"
+                                  : "box";
+}
+
+// The rotation matrix of unit quaternion q = (w, x, y, z), row by row.
+nlohmann::json rotationMatrix(const std::array<double, 4>& q) {
+  const auto [w, x, y, z] = q;
+  return {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+          {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+          {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
 }
 
 }  // namespace
@@ -19,10 +34,31 @@ nlohmann::json collidersToJson(const std::vector<SnapshotCollider>& colliders) {
   for (const SnapshotCollider& c : colliders)
     out.push_back({{"shape", shapeName(c.shape)},
                    {"position", c.position},
+                   {"rotation", c.rotation},
+                   {"matrix", rotationMatrix(c.rotation)},
                    {"normal", c.normal},
                    {"radius", c.radius},
                    {"size", c.size},
                    {"velocity", c.velocity}});
+  return out;
+}
+
+nlohmann::json colliderFramesJson(const Scene& scene, int frames) {
+  nlohmann::json out = {
+      {"format", "snowsim colliders 1"},
+      {"axes",
+       "metres and seconds, right-handed, y up (a 2D run: x, y and z = 0); each collider's shape "
+       "is in its local frame, x_world = R x_local + position, R the rotation, given as a unit "
+       "quaternion [w, x, y, z] and as the matrix row by row"},
+      {"fps", scene.fps},
+      {"frames", nlohmann::json::array()}};
+  for (int frame = 0; frame < frames; ++frame) {
+    const double time = std::min(scene.duration, frame / scene.fps);
+    out["frames"].push_back(
+        {{"frame", frame},
+         {"time", time},
+         {"colliders", collidersToJson(collidersAt(scene, scene.dimension, time))}});
+  }
   return out;
 }
 
@@ -37,18 +73,23 @@ std::vector<SnapshotCollider> collidersFromJson(const nlohmann::json& colliders,
       const nlohmann::json& j = colliders[i];
       SnapshotCollider c;
       const std::string shape = j.at("shape").get<std::string>();
-      if (shape != "plane" && shape != "sphere" && shape != "box")
-        throw InputError(where + ".shape: \"" + shape + "\"; allowed: plane, sphere, box");
-      c.shape = shape == "plane" ? Shape::Plane : shape == "sphere" ? Shape::Sphere : Shape::Box;
+      const auto known = std::find_if(kShapes.begin(), kShapes.end(),
+                                      [&](Shape s) { return shape == shapeName(s); });
+      if (known == kShapes.end())
+        throw InputError(where + ".shape: \"" + shape + "\"; allowed: plane, sphere, box, drum");
+      c.shape = *known;
       c.position = j.at("position").get<std::array<double, 3>>();
+      // Runs before colliders turned recorded no rotation.
+      c.rotation = j.value("rotation", c.rotation);
       c.normal = j.at("normal").get<std::array<double, 3>>();
       c.radius = j.at("radius").get<double>();
       c.size = j.at("size").get<std::array<double, 3>>();
       c.velocity = j.at("velocity").get<std::array<double, 3>>();
       out.push_back(c);
     } catch (const nlohmann::json::exception& e) {
-      throw InputError(where + ": " + e.what() +
-                       "; expected shape, position, normal, radius, size, velocity");
+      throw InputError(
+          where + ": " + e.what() +
+          "; expected shape, position, normal, radius, size, velocity (rotation optional)");
     }
   }
   return out;

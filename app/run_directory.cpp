@@ -66,8 +66,8 @@ std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& vi
     if (name.size() > kTemporary.size() &&
         name.compare(name.size() - kTemporary.size(), kTemporary.size(), kTemporary) == 0)
       name.resize(name.size() - kTemporary.size());
-    if (std::regex_match(name, frame) || name == "run.json" || name == video ||
-        (!recorded.empty() && name == recorded))
+    if (std::regex_match(name, frame) || name == "run.json" || name == "colliders.json" ||
+        name == video || (!recorded.empty() && name == recorded))
       files.push_back(entry.path());
   }
   std::sort(files.begin(), files.end());

@@ -59,7 +59,7 @@ void fitToScene(RenderSettings& settings, const Scene& scene, const Snapshot& fi
     for (double sign : {-1.0, 1.0}) {
       Vec3 corner;
       for (int a = 0; a < 3; ++a) {
-        const double half = c.shape == ColliderShape::Sphere ? c.radius : c.size[a] / 2;
+        const double half = c.shape == ColliderShape::Box ? c.size[a] / 2 : c.radius;
         corner[a] = std::clamp(c.position[a] + sign * half, 0.0, extent[a]);
       }
       solid.add(corner);

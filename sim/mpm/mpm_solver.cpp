@@ -51,7 +51,6 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
       inertia_inverse_(T(withKernel(
           params_.kernel, [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); }))),
       colliders_(makeColliders<D>(scene)),
-      colliders_after_(colliders_),
       schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads) {
   if (!double_precision && params_.integrator == MpmIntegrator::SemiImplicit)
     throw InputError(scene.file +
@@ -74,7 +73,6 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
 template <int D, class T>
 void MpmSolver<D, T>::advance(Real dt) {
   placeColliders(colliders_, this->time());
-  placeColliders(colliders_after_, this->time() + dt);
   const Real stable_dt = semiImplicit() ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
@@ -298,10 +296,10 @@ void MpmSolver<D, T>::advect(int p, T dt) {
   V& x = particles_.x[p];
   x += dt * particles_.v[p];
   if constexpr (double_precision) {
-    for (const Collider<D>& c : colliders_after_) c.pushOut(x);
+    for (const Collider<D>& c : colliders_) c.pushOut(x);
   } else {
     Vec<D> x_double = x.template cast<Real>();
-    for (const Collider<D>& c : colliders_after_) c.pushOut(x_double);
+    for (const Collider<D>& c : colliders_) c.pushOut(x_double);
     x = x_double.template cast<T>();
   }
   x = x.cwiseMax(V::Zero()).cwiseMin(grid_.extent().template cast<T>());  // never leave the domain

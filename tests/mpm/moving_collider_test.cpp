@@ -157,7 +157,8 @@ TEST(MovingCollider, ConstantAngularVelocityAndTwoKeysAgree) {
 TEST(MovingCollider, NoParticleEndsInsideThePlough) {
   // The plough scene at half its resolution and a particle a cell, for its first 0.5 s (the
   // blade enters the snow at 0.07 s): after every frame each particle is outside every collider
-  // (phi >= -1e-9 m, the rounding of the push out of a turned box).
+  // as posed at the last step's start (phi >= -1e-9 m, the rounding of the push out of a turned
+  // box; measured -1e-17); against the pose at the step's end it may be in by |v_c| dt.
   Scene scene = loadScene(std::string(SNOWSIM_SOURCE_DIR) + "/scenes/mpm_plough.json");
   scaleGrid(scene, 0.5);
   setParticlesPerCell(scene, 1);

@@ -32,7 +32,38 @@ struct RunSummary {
   int dimension = 3;  // unknown without run.json: frame the snow in case
   std::optional<Camera> camera;
   std::vector<SnapshotCollider> colliders;  // at time 0
+  // colliders.json: the times of its frames and the colliders at each (empty: none written).
+  std::vector<double> collider_times;
+  std::vector<std::vector<SnapshotCollider>> collider_frames;
+
+  // The colliders at `time`: colliders.json's nearest frame, else run.json's moved on.
+  std::vector<SnapshotCollider> collidersAt(double time) const {
+    if (collider_times.empty()) {
+      std::vector<SnapshotCollider> moved;
+      for (const SnapshotCollider& c : colliders) moved.push_back(c.movedBy(time));
+      return moved;
+    }
+    size_t nearest = 0;
+    for (size_t i = 1; i < collider_times.size(); ++i)
+      if (std::abs(collider_times[i] - time) < std::abs(collider_times[nearest] - time))
+        nearest = i;
+    return collider_frames[nearest];
+  }
 };
+
+void readColliderFrames(const std::filesystem::path& file, RunSummary& run) {
+  std::ifstream in(file);
+  if (!in) return;
+  const auto json = nlohmann::json::parse(in, nullptr, false);
+  if (json.is_discarded() || !json.contains("frames") || !json["frames"].is_array())
+    throw InputError(file.string() + ": not a colliders file as snowsim run writes it");
+  for (const nlohmann::json& frame : json["frames"]) {
+    if (!frame.contains("time") || !frame["time"].is_number() || !frame.contains("colliders"))
+      throw InputError(file.string() + ": frames: every frame needs a time and colliders");
+    run.collider_times.push_back(frame["time"].get<double>());
+    run.collider_frames.push_back(collidersFromJson(frame["colliders"], file.string()));
+  }
+}
 
 RunSummary readRunSummary(const std::filesystem::path& dir) {
   RunSummary run;
@@ -50,6 +81,7 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
   }
   if (summary.contains("colliders"))
     run.colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
+  readColliderFrames(dir / "colliders.json", run);
   return run;
 }
 
@@ -106,8 +138,7 @@ void renderFrames(const RenderCommandOptions& options) {
                   options.render.mp4 ? out + "/" + run.name + ".mp4" : "", video);
   for (const auto& file : files) {
     Snapshot frame = readPly(file);
-    for (const SnapshotCollider& c : run.colliders)
-      frame.colliders.push_back(c.movedBy(frame.time));
+    frame.colliders = run.collidersAt(frame.time);
     sink.write(frame);
   }
   sink.finish();

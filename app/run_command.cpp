@@ -289,6 +289,9 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
   summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
   if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
+  if (!scene.colliders.empty())
+    writeFileAtomically(options.out + "/colliders.json",
+                        colliderFramesJson(scene, written).dump(1) + "\n");
   writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (const int sig = interruptSignal())
     throw Interrupted(sig, "interrupted after " + std::to_string(written) + " of " +

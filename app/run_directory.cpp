@@ -66,8 +66,8 @@ std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& vi
     if (name.size() > kTemporary.size() &&
         name.compare(name.size() - kTemporary.size(), kTemporary.size(), kTemporary) == 0)
       name.resize(name.size() - kTemporary.size());
-    if (std::regex_match(name, frame) || name == "run.json" || name == video ||
-        name == "checkpoint.snowsim" || name == "checkpoint.snowsim.prev" ||
+    if (std::regex_match(name, frame) || name == "run.json" || name == "colliders.json" ||
+        name == video || name == "checkpoint.snowsim" || name == "checkpoint.snowsim.prev" ||
         (!recorded.empty() && name == recorded))
       files.push_back(entry.path());
   }

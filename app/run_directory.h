@@ -8,8 +8,8 @@
 
 namespace snowsim {
 
-// The files of an earlier run in dir: frame_NNNNN.ply and .png, run.json, the video run.json
-// names or `video` (the file this run's video would replace), its checkpoints
+// The files of an earlier run in dir: frame_NNNNN.ply and .png, run.json, colliders.json, the
+// video run.json names or `video` (the file this run's video would replace), its checkpoints
 // (checkpoint.snowsim and .prev), and leftover temporaries (NAME.tmp) of any of them. Sorted.
 std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& dir,
                                                    const std::string& video);

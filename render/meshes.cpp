@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glm/gtc/quaternion.hpp>
+
 namespace snowsim {
 
 namespace {
@@ -64,6 +66,42 @@ void appendTriangles(const TriangleMesh& mesh, glm::vec3 colour, std::vector<flo
   }
 }
 
+// A drum's wall seen from inside: the ring r <= |(x, y)| <= r + thickness at z = 0 in 2D, the
+// cylinder |(x, y)| = r for |z| <= length / 2 in 3D (its normals towards the axis), about local
+// z. Alternate segments are shaded darker so that its turning shows.
+void appendDrum(float radius, float length, int dimension, glm::vec3 colour,
+                std::vector<float>& out) {
+  constexpr int kSegments = 48, kStripe = 4;
+  const float outer = radius * 1.15f;
+  for (int i = 0; i < kSegments; ++i) {
+    const float a = 2 * kPi * i / kSegments, b = 2 * kPi * (i + 1) / kSegments;
+    const glm::vec3 ua(std::cos(a), std::sin(a), 0), ub(std::cos(b), std::sin(b), 0);
+    const glm::vec3 shade = (i / kStripe) % 2 ? 0.75f * colour : colour;
+    if (dimension == 2) {
+      appendFan({radius * ua, outer * ua, outer * ub, radius * ub}, {0, 0, 1}, shade, out);
+      continue;
+    }
+    const glm::vec3 half(0, 0, 0.5f * length);
+    const glm::vec3 p[4] = {radius * ua - half, radius * ub - half, radius * ub + half,
+                            radius * ua + half};
+    const glm::vec3 n[4] = {-ua, -ub, -ub, -ua};
+    for (int k : {0, 1, 2, 0, 2, 3}) appendVertex(out, {p[k], n[k], shade});
+  }
+}
+
+// Turns the vertices appended from float `first` on (built about the origin in the collider's
+// local frame) by `rotation` and moves them to `centre`.
+void placeVertices(std::vector<float>& out, size_t first, const glm::quat& rotation,
+                   glm::vec3 centre) {
+  const glm::mat3 turn = glm::mat3_cast(rotation);
+  for (size_t i = first; i + 9 <= out.size(); i += 9) {
+    const glm::vec3 p = turn * glm::vec3(out[i], out[i + 1], out[i + 2]) + centre;
+    const glm::vec3 n = turn * glm::vec3(out[i + 3], out[i + 4], out[i + 5]);
+    std::copy_n(&p.x, 3, &out[i]);
+    std::copy_n(&n.x, 3, &out[i + 3]);
+  }
+}
+
 // Two unit vectors spanning the plane of unit normal n.
 std::pair<glm::vec3, glm::vec3> tangents(glm::vec3 n) {
   const glm::vec3 helper = std::abs(n.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
@@ -112,44 +150,54 @@ std::vector<glm::vec3> clipPolygon(const std::vector<glm::vec3>& polygon, glm::v
 void appendCollider(const SnapshotCollider& c, int dimension, glm::vec3 extent, glm::vec3 colour,
                     std::vector<float>& out) {
   using Shape = SnapshotCollider::Shape;
-  const glm::vec3 centre = vec(c.position), facing(0, 0, 1);
-  if (dimension == 2) {
-    if (c.shape == Shape::Box) {
-      const glm::vec3 half = 0.5f * vec(c.size);
-      appendFan(rectangle({centre.x, centre.y, 0}, {half.x, 0, 0}, {0, half.y, 0}), facing, colour,
-                out);
-    } else if (c.shape == Shape::Sphere) {
-      constexpr int kSegments = 48;
-      std::vector<glm::vec3> disc;
-      for (int i = 0; i < kSegments; ++i) {
-        const float a = 2 * kPi * i / kSegments, r = static_cast<float>(c.radius);
-        disc.push_back({centre.x + r * std::cos(a), centre.y + r * std::sin(a), 0});
-      }
-      appendFan(disc, facing, colour, out);
-    } else {
-      const glm::vec3 n = glm::normalize(glm::vec3(c.normal[0], c.normal[1], 0));
+  const glm::quat rotation(static_cast<float>(c.rotation[0]), static_cast<float>(c.rotation[1]),
+                           static_cast<float>(c.rotation[2]), static_cast<float>(c.rotation[3]));
+  glm::vec3 centre = vec(c.position);
+  const glm::vec3 facing(0, 0, 1);
+  if (dimension == 2) centre.z = 0;
+  if (c.shape == Shape::Plane) {
+    glm::vec3 n = rotation * vec(c.normal);
+    if (dimension == 2) {
+      n = glm::normalize(glm::vec3(n.x, n.y, 0));
       const std::vector<glm::vec3> domain =
           rectangle(0.5f * glm::vec3(extent.x, extent.y, 0), {0.5f * extent.x, 0, 0},
                     {0, 0.5f * extent.y, 0});
-      appendFan(clipPolygon(domain, {centre.x, centre.y, 0}, n), facing, colour, out);
+      return appendFan(clipPolygon(domain, centre, n), facing, colour, out);
     }
-    return;
+    // A square on the plane, larger than the domain, clipped to the domain's walls.
+    n = glm::normalize(n);
+    const glm::vec3 middle = 0.5f * extent;
+    const glm::vec3 foot = middle - glm::dot(middle - centre, n) * n;
+    const auto [u, v] = tangents(n);
+    const float reach = glm::length(extent);
+    std::vector<glm::vec3> polygon = rectangle(foot, reach * u, reach * v);
+    for (const auto& [point, normal] : domainWalls(extent, 3))
+      polygon = clipPolygon(polygon, point, normal);
+    return appendFan(polygon, n, colour, out);
   }
-  if (c.shape == Shape::Box) return appendBox(centre, 0.5f * vec(c.size), colour, out);
-  if (c.shape == Shape::Mesh)
-    return appendTriangles(placed(*c.mesh, {c.position, c.rotation, c.scale}), colour, out);
-  if (c.shape == Shape::Sphere)
-    return appendSphere(centre, static_cast<float>(c.radius), colour, out);
-  // A plane: a square on it, larger than the domain, clipped to the domain's walls.
-  const glm::vec3 n = glm::normalize(vec(c.normal));
-  const glm::vec3 middle = 0.5f * extent;
-  const glm::vec3 foot = middle - glm::dot(middle - centre, n) * n;
-  const auto [u, v] = tangents(n);
-  const float reach = glm::length(extent);
-  std::vector<glm::vec3> polygon = rectangle(foot, reach * u, reach * v);
-  for (const auto& [point, normal] : domainWalls(extent, 3))
-    polygon = clipPolygon(polygon, point, normal);
-  appendFan(polygon, n, colour, out);
+  const size_t first = out.size();
+  const float radius = static_cast<float>(c.radius);
+  if (c.shape == Shape::Mesh) {
+    appendTriangles(placed(*c.mesh, {{0, 0, 0}, {0, 0, 0}, c.scale}), colour, out);
+  } else if (c.shape == Shape::Drum) {
+    appendDrum(radius, static_cast<float>(c.size[2]), dimension, colour, out);
+  } else if (dimension == 3 && c.shape == Shape::Box) {
+    appendBox(glm::vec3(0), 0.5f * vec(c.size), colour, out);
+  } else if (dimension == 3) {
+    appendSphere(glm::vec3(0), radius, colour, out);
+  } else if (c.shape == Shape::Box) {
+    const glm::vec3 half = 0.5f * vec(c.size);
+    appendFan(rectangle(glm::vec3(0), {half.x, 0, 0}, {0, half.y, 0}), facing, colour, out);
+  } else {
+    constexpr int kSegments = 48;
+    std::vector<glm::vec3> disc;
+    for (int i = 0; i < kSegments; ++i) {
+      const float a = 2 * kPi * i / kSegments;
+      disc.push_back({radius * std::cos(a), radius * std::sin(a), 0});
+    }
+    appendFan(disc, facing, colour, out);
+  }
+  placeVertices(out, first, rotation, centre);
 }
 
 }  // namespace snowsim

@@ -20,10 +20,11 @@ void appendVertex(std::vector<float>& out, const MeshVertex& v);
 // 3D: the ground plane y = 0 under the domain [0, extent], reaching `margin` beyond it each way.
 void appendGround(glm::vec3 extent, float margin, glm::vec3 colour, std::vector<float>& out);
 
-// A collider as triangles, for the domain [0, extent]. 3D: a box's six faces, a sphere's surface,
-// a mesh's triangles, a plane's surface where it crosses the domain. 2D (flat, at z = 0, facing
-// +z): the box's rectangle, the sphere's disc, the region of the domain behind the plane (its solid
-// side).
+// A collider as triangles, turned by its rotation, for the domain [0, extent]. 3D: a box's six
+// faces, a sphere's surface, a mesh's triangles, a plane's surface where it crosses the domain, a
+// drum's wall (open at both ends, lit from inside). 2D (flat, at z = 0, facing +z): the box's
+// rectangle, the sphere's disc, the region of the domain behind the plane (its solid side), a ring
+// around the drum. A drum's wall is striped so that its turning shows.
 void appendCollider(const SnapshotCollider& collider, int dimension, glm::vec3 extent,
                     glm::vec3 colour, std::vector<float>& out);
 

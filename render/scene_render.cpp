@@ -52,10 +52,11 @@ namespace {
 
 // The lowest and highest corners of a solid collider's bounding box.
 std::array<Vec3, 2> colliderBounds(const ColliderParams& c) {
-  if (c.shape == ColliderShape::Mesh) return c.mesh.placedAt(c.position).bounds();
+  if (c.shape == ColliderShape::Mesh)  // as posed at time 0
+    return placed(*c.mesh.triangles, {c.position, c.rotation, c.mesh.scale}).bounds();
   std::array<Vec3, 2> box{};
   for (int a = 0; a < 3; ++a) {
-    const double half = c.shape == ColliderShape::Sphere ? c.radius : c.size[a] / 2;
+    const double half = c.shape == ColliderShape::Box ? c.size[a] / 2 : c.radius;
     box[0][a] = c.position[a] - half;
     box[1][a] = c.position[a] + half;
   }

@@ -38,14 +38,15 @@ Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<
   for (const Collider<D>& c : colliders) {
     if (c.phi(x) > 0) continue;
     const Vec<D> n = c.outwardNormal(x);
-    const Vec<D> v_rel = v - c.velocity;
+    const Vec<D> v_c = c.surfaceVelocity(x);
+    const Vec<D> v_rel = v - v_c;
     const Real v_n = v_rel.dot(n);
     if (c.type == ColliderType::Separating && v_n >= 0) continue;
     // The static friction branch of collideVelocity: the node sticks.
     const bool sticks =
         c.type == ColliderType::Sticky ||
         (c.type == ColliderType::Separating && (v_rel - v_n * n).norm() <= -c.friction * v_n);
-    v = collideVelocity<D>(v, n, c.velocity, c.type, c.friction);
+    v = collideVelocity<D>(v, n, v_c, c.type, c.friction);
     if (++contacts > 1 || sticks) {
       free.setZero();
     } else {
@@ -57,7 +58,7 @@ Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<
 
 template <int D>
 Real Collider<D>::phi(const Vec<D>& x) const {
-  const Vec<D> r = x - position;
+  const Vec<D> r = rotation.transpose() * (x - position);  // local frame
   switch (shape) {
     case ColliderShape::HalfSpace:
       return r.dot(normal);
@@ -78,17 +79,19 @@ Real Collider<D>::phi(const Vec<D>& x) const {
     }
     case ColliderShape::Mesh:
       return level_set->phi(toArray3(r));
+    case ColliderShape::Drum:  // the solid is outside the cylinder about local z
+      return radius - std::hypot(r[0], r[1]);
   }
   return 0;
 }
 
 template <int D>
 Vec<D> Collider<D>::outwardNormal(const Vec<D>& x) const {
-  Vec<D> r = x - position;
+  const Vec<D> r = rotation.transpose() * (x - position);
   Vec<D> n = Vec<D>::Zero();
   switch (shape) {
     case ColliderShape::HalfSpace:
-      return normal;
+      return rotation * normal;
     case ColliderShape::Sphere:
       n.head(shape_dims) = r.head(shape_dims);
       break;
@@ -108,15 +111,57 @@ Vec<D> Collider<D>::outwardNormal(const Vec<D>& x) const {
       for (int a = 0; a < D; ++a) n[a] = g[a];
       break;
     }
+    case ColliderShape::Drum:
+      n.template head<2>() = -r.template head<2>();
+      break;
   }
   const Real len = n.norm();
-  if (len == 0) {  // the centre of a sphere: any direction will do, choose +y
+  if (len == 0) {  // the centre of a sphere or drum: any direction will do, choose +y
     n.setZero();
     n[1] = 1;
-    return n;
+    return rotation * n;
   }
-  return n / len;
+  return rotation * (n / len);
 }
+
+template <int D>
+void Collider<D>::placeAt(Real time) {
+  const RigidPose pose = motion.at(time);
+  const Mat<3> turn = pose.rotation.toRotationMatrix();
+  Mat<3> spin3;
+  spin3 << 0, -pose.angular_velocity.z(), pose.angular_velocity.y(),  //
+      pose.angular_velocity.z(), 0, -pose.angular_velocity.x(),       //
+      -pose.angular_velocity.y(), pose.angular_velocity.x(), 0;
+  position = pose.position.head<D>();
+  rotation = turn.topLeftCorner<D, D>();
+  velocity = pose.velocity.head<D>();
+  spin = spin3.topLeftCorner<D, D>();
+}
+
+template <int D>
+void placeColliders(std::vector<Collider<D>>& colliders, Real time) {
+  for (Collider<D>& c : colliders)
+    if (c.motion.moves()) c.placeAt(time);
+}
+
+template <int D>
+Real fastestColliderSpeed(const std::vector<Collider<D>>& colliders, Real domain_diagonal) {
+  Real fastest = 0;
+  for (const Collider<D>& c : colliders)
+    fastest = std::max(fastest, c.motion.fastestSpeedWithin(domain_diagonal));
+  return fastest;
+}
+
+namespace {
+
+// A 2D scene's collider in the slab of a 3D run: its local origin halfway through the depth.
+ColliderParams centredInSlab(ColliderParams p, double depth) {
+  p.position[2] = depth / 2;
+  for (ColliderKey& k : p.keyframes) k.position[2] = depth / 2;
+  return p;
+}
+
+}  // namespace
 
 template <int D>
 std::vector<Collider<D>> makeColliders(const Scene& scene) {
@@ -138,12 +183,9 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
     c.shape = p.shape;
     c.shape_dims = dims;
     for (int a = 0; a < dims; ++a) {
-      c.position[a] = p.position[a];
       c.normal[a] = p.normal[a];
       c.half_size[a] = p.size[a] / 2;
-      c.velocity[a] = p.velocity[a];
     }
-    if (D > dims) c.position[D - 1] = extent[D - 1] / 2;
     c.radius = p.radius;
     // Once per run: the distance field on voxels of half a cell, a few cells beyond the surface.
     if (p.shape == ColliderShape::Mesh)
@@ -151,6 +193,8 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
                                                      scene.cell_size / 2, 3 * scene.cell_size);
     c.type = p.type;
     c.friction = p.friction;
+    c.motion = RigidMotion(D > dims ? centredInSlab(p, extent[D - 1]) : p);
+    c.placeAt(0);
     colliders.push_back(c);
   }
   return colliders;
@@ -159,28 +203,30 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
 std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, double time) {
   using Shape = SnapshotCollider::Shape;
   const Vec3 extent = scene.extent();
+  const bool extruded = scene.authored_dimension == 2;  // through the slab, or flat in 2D
   std::vector<SnapshotCollider> colliders;
   for (const ColliderParams& p : scene.colliders) {
     SnapshotCollider c;
     c.shape = p.shape == ColliderShape::HalfSpace ? Shape::Plane
               : p.shape == ColliderShape::Sphere  ? Shape::Sphere
-              : p.shape == ColliderShape::Box     ? Shape::Box
-                                                  : Shape::Mesh;
-    c.position = p.position;
+              : p.shape == ColliderShape::Drum    ? Shape::Drum
+              : p.shape == ColliderShape::Mesh    ? Shape::Mesh
+                                                  : Shape::Box;
+    const RigidPose pose =
+        RigidMotion(extruded ? centredInSlab(p, dimension == 3 ? extent[2] : 0) : p).at(time);
     c.normal = p.normal;
     c.radius = p.radius;
-    c.size = p.size;
-    c.velocity = p.velocity;
+    c.size = p.shape == ColliderShape::Drum ? Vec3{2 * p.radius, 2 * p.radius, extent[2]} : p.size;
+    if (extruded) c.size[2] = dimension == 3 ? extent[2] : 0;
     c.mesh = p.mesh.triangles;
     c.mesh_file = p.mesh.file;
-    c.rotation = p.mesh.rotation;
     c.scale = p.mesh.scale;
-    if (scene.authored_dimension == 2) {  // extruded along z: through the slab, or flat in 2D
-      c.position[2] = dimension == 3 ? extent[2] / 2 : 0;
-      c.size[2] = dimension == 3 ? extent[2] : 0;
-      c.normal[2] = c.velocity[2] = 0;
+    for (int a = 0; a < 3; ++a) {
+      c.position[a] = pose.position[a];
+      c.velocity[a] = pose.velocity[a];
     }
-    colliders.push_back(c.movedBy(time));
+    c.rotation = {pose.rotation.w(), pose.rotation.x(), pose.rotation.y(), pose.rotation.z()};
+    colliders.push_back(c);
   }
   return colliders;
 }
@@ -191,6 +237,10 @@ template Vec<2> collideVelocity<2>(const Vec<2>&, const Vec<2>&, const Vec<2>&, 
 template Vec<3> collideVelocity<3>(const Vec<3>&, const Vec<3>&, const Vec<3>&, ColliderType, Real);
 template struct Collider<2>;
 template struct Collider<3>;
+template void placeColliders<2>(std::vector<Collider<2>>&, Real);
+template void placeColliders<3>(std::vector<Collider<3>>&, Real);
+template Real fastestColliderSpeed<2>(const std::vector<Collider<2>>&, Real);
+template Real fastestColliderSpeed<3>(const std::vector<Collider<3>>&, Real);
 template std::vector<Collider<2>> makeColliders<2>(const Scene&);
 template std::vector<Collider<3>> makeColliders<3>(const Scene&);
 

@@ -1,13 +1,14 @@
 // Colliders described by a signed distance (Stomakhin et al. 2013, section 8): the domain walls,
-// ground planes, spheres, boxes and closed meshes, each optionally moving with its own velocity. A
-// collision acts on a velocity relative to the collider's (sticky, slip, or separating with Coulomb
-// friction).
+// ground planes, spheres, boxes, drums and closed meshes, each a shape in its local frame moved
+// rigidly through the world (sim/core/rigid_motion.h). A collision acts on a velocity relative to
+// the collider's surface velocity there (sticky, slip, or separating with Coulomb friction).
 #pragma once
 
 #include <memory>
 #include <vector>
 
 #include "sim/core/math.h"
+#include "sim/core/rigid_motion.h"
 #include "sim/core/snapshot.h"
 #include "sim/geometry/level_set.h"
 #include "sim/scene/scene.h"
@@ -25,32 +26,40 @@ Vec<D> collideVelocity(const Vec<D>& v, const Vec<D>& n, const Vec<D>& collider_
 template <int D>
 struct Collider {
   ColliderShape shape = ColliderShape::HalfSpace;
-  Vec<D> position = Vec<D>::Zero();  // plane point, sphere or box centre
-  Vec<D> normal = Vec<D>::Zero();    // half space: outward unit normal
-  Real radius = 0;
+  // The local frame: x_world = rotation x_local + position. The shape is given in it.
+  Vec<D> position = Vec<D>::Zero();  // local origin: plane point, sphere, box or drum centre
+  Mat<D> rotation = Mat<D>::Identity();
+  Vec<D> normal = Vec<D>::Zero();  // half space: outward unit normal, local frame
+  Real radius = 0;                 // sphere; drum: inner radius about the local z axis
   Vec<D> half_size = Vec<D>::Zero();
   std::shared_ptr<const LevelSet> level_set;  // mesh (3D): its signed distance about position
+  // The rigid velocity: v(x) = velocity + spin (x - position), spin the angular velocity's
+  // cross-product matrix (in 2D its top left 2x2).
   Vec<D> velocity = Vec<D>::Zero();
+  Mat<D> spin = Mat<D>::Zero();
   ColliderType type = ColliderType::Separating;
   Real friction = 0;
   int shape_dims = D;  // axes the shape depends on; a 2D shape in a 3D slab is extruded along z
+  RigidMotion motion;  // where placeAt puts the collider (at rest for the domain walls)
 
   // Signed distance: negative inside the solid.
   Real phi(const Vec<D>& x) const;
   // Outward unit normal at x (the gradient of phi).
   Vec<D> outwardNormal(const Vec<D>& x) const;
+  Vec<D> surfaceVelocity(const Vec<D>& x) const { return velocity + spin * (x - position); }
 
   // Applies the collision to v at x when x is inside or on the collider (phi <= 0).
   void collide(const Vec<D>& x, Vec<D>& v) const {
     if (phi(x) > 0) return;
-    v = collideVelocity<D>(v, outwardNormal(x), velocity, type, friction);
+    v = collideVelocity<D>(v, outwardNormal(x), surfaceVelocity(x), type, friction);
   }
   // Moves x onto the surface if it ended inside.
   void pushOut(Vec<D>& x) const {
     const Real d = phi(x);
     if (d < 0) x -= d * outwardNormal(x);
   }
-  void advance(Real dt) { position += dt * velocity; }
+  // Sets the pose and velocities to the motion's at `time` (s).
+  void placeAt(Real time);
 };
 
 // Applies every collider to the grid velocity v at node x (as Collider::collide does) and returns
@@ -60,6 +69,15 @@ struct Collider {
 // component, zero where the node sticks (sticky, static friction, or two contacts).
 template <int D>
 Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v);
+
+// Places every collider that moves at `time` (s); the others stay where makeColliders put them.
+template <int D>
+void placeColliders(std::vector<Collider<D>>& colliders, Real time);
+
+// The fastest any point of a collider within the domain moves, for the step limit: a collider
+// must not cross a cell in a step unseen by the grid.
+template <int D>
+Real fastestColliderSpeed(const std::vector<Collider<D>>& colliders, Real domain_diagonal);
 
 // The 2D walls of the domain box [0, extent] as half spaces, plus the scene's colliders. The walls
 // along a 2D scene's extruded z axis are frictionless slip walls, so a slab behaves like 2D.

@@ -24,23 +24,25 @@ struct GridInfo {
 };
 
 // A scene collider where it is at the snapshot's time, for drawing (plain data; 2D runs have z = 0
-// and a 2D collider stands for its extrusion along z).
+// and a 2D collider stands for its extrusion along z). The shape is given in the collider's local
+// frame, placed by x_world = R(rotation) x_local + position.
 struct SnapshotCollider {
-  enum class Shape { Plane, Sphere, Box, Mesh };
+  enum class Shape { Plane, Sphere, Box, Drum, Mesh };
   Shape shape = Shape::Plane;
-  std::array<double, 3> position{};       // a point of the plane, the sphere's or box's centre (m)
-  std::array<double, 3> normal{0, 1, 0};  // plane: outward normal (the solid is behind it)
-  double radius = 0;                      // sphere (m)
-  std::array<double, 3> size{};           // box extents (m)
-  std::array<double, 3> velocity{};       // m/s
-  // Mesh: the file's triangles (shared by every frame), scaled, rotated (degrees about x, then y,
-  // then z) and moved to position; the file is named for run.json.
+  std::array<double, 3> position{};  // the local origin: a point of the plane, the centre (m)
+  std::array<double, 4> rotation{1, 0, 0, 0};  // unit quaternion w, x, y, z: local to world
+  std::array<double, 3> normal{0, 1, 0};  // plane: outward normal, local (the solid is behind it)
+  double radius = 0;                      // sphere; drum: the inner radius about local z (m)
+  std::array<double, 3> size{};           // box extents; drum: 2 radius, 2 radius, length (m)
+  std::array<double, 3> velocity{};       // of the local origin (m/s)
+  // Mesh: the file's triangles (shared by every frame), scaled about the local origin; the file is
+  // named for run.json.
   std::shared_ptr<const TriangleMesh> mesh;
   std::string mesh_file;
-  std::array<double, 3> rotation{};
   double scale = 1;
 
-  // Where the collider is `elapsed` seconds later (colliders move at constant velocity).
+  // Where the collider is `elapsed` seconds later, moving on at its velocity without turning
+  // (for runs that recorded only the colliders at time 0).
   SnapshotCollider movedBy(double elapsed) const {
     SnapshotCollider moved = *this;
     for (int a = 0; a < 3; ++a) moved.position[a] += elapsed * velocity[a];

@@ -59,7 +59,8 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
-  for (const Collider<D>& c : colliders_) colliders_move_ = colliders_move_ || !c.velocity.isZero();
+  collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
+  colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   scatter(0);
   updateGridVelocities(0);  // the grid's mass, for the volumes
@@ -72,6 +73,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
 // One step, the paper's section 4 list; the stages run on the schedule's threads.
 template <int D, class T>
 void MpmSolver<D, T>::advance(Real dt) {
+  placeColliders(colliders_, this->time());
   const Real stable_dt = semiImplicit() ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
@@ -81,7 +83,6 @@ void MpmSolver<D, T>::advance(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel,
                         [&]<class Transfer, class Kernel>() { stepWith<Transfer, Kernel>(T(dt)); });
   collectMeasures();
-  for (Collider<D>& c : colliders_) c.advance(dt);
 }
 
 template <int D, class T>
@@ -394,15 +395,15 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
 template <int D, class T>
 Real MpmSolver<D, T>::cflTimeStep() const {
   // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md).
-  return fastest_signal_ > 0 ? params_.cfl * grid_.h / fastest_signal_
-                             : std::numeric_limits<Real>::infinity();
+  const Real fastest = std::max(fastest_signal_, collider_speed_);
+  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
 }
 
 template <int D, class T>
 Real MpmSolver<D, T>::advectionTimeStep() const {
   // The semi-implicit step has no elastic wave limit, only advection: dt <= C h / |v|max.
-  return fastest_speed_ > 0 ? params_.cfl * grid_.h / fastest_speed_
-                            : std::numeric_limits<Real>::infinity();
+  const Real fastest = std::max(fastest_speed_, collider_speed_);
+  return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
 }
 
 template <int D, class T>

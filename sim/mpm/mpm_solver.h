@@ -46,11 +46,13 @@ class MpmSolver final : public Solver<D> {
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
   LameOf<T> lame(int p) const { return particles_.lame[p]; }
   const SnowMaterial& material() const { return material_; }
+  // The colliders where they were at the start of the last step.
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
   const MpmParams& params() const { return params_; }
-  // The CFL step C h / (c + |v|)max of the current state, whether or not dt is adaptive.
+  // The CFL step C h / (c + |v|)max of the current state, whether or not dt is adaptive, and at
+  // most C h / (a collider's fastest surface speed).
   Real cflTimeStep() const;
-  // The advection limit C h / |v|max that bounds the semi-implicit step.
+  // The advection limit C h / |v|max that bounds the semi-implicit step (colliders as above).
   Real advectionTimeStep() const;
   // The Krylov solve of the last semi-implicit step.
   const KrylovResult& lastImplicitSolve() const { return last_solve_; }
@@ -138,7 +140,9 @@ class MpmSolver final : public Solver<D> {
   T inv_h_;            // 1 / h
   T inertia_inverse_;  // D_p^-1 of APIC for the scene's kernel (transfer_scheme.h)
   GridFields<D, T> fields_;
+  // The colliders where they are at the start of the step.
   std::vector<Collider<D>> colliders_;
+  Real collider_speed_ = 0;  // the fastest any point of a collider moves (fastestColliderSpeed)
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;
   ImplicitVelocitySolve<D> implicit_;

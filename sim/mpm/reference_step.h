@@ -34,7 +34,8 @@ struct ReferenceState {
   std::vector<Vec<D>> grid_v;
   SnowMaterial material;
   Vec<D> g;                            // gravity, m/s^2
-  std::vector<Collider<D>> colliders;  // the domain walls first (makeColliders)
+  std::vector<Collider<D>> colliders;  // the domain walls first (makeColliders), placed at `time`
+  Real time = 0;                       // s
 };
 
 // The state of `particles` at rest in `scene`'s grid, V_p^0 = m_p / rho_body (the lattice volume).

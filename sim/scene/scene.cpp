@@ -119,14 +119,15 @@ Vec3 unitDirection(JsonFields& f, const std::string& key, Vec3 direction) {
 
 // The fields of a mesh: the file (relative to the scene file's folder), its rotation and scale;
 // the file is read and checked here, so a bad mesh stops the scene before anything runs.
-SceneMesh parseSceneMesh(JsonFields& f, const Scene& scene) {
+// `with_rotation`: a body's mesh is turned by its own "rotation"; a collider's by its motion's.
+SceneMesh parseSceneMesh(JsonFields& f, const Scene& scene, bool with_rotation) {
   if (scene.authored_dimension != 3)
     f.fail("shape", "\"mesh\" needs a 3D scene (grid.cells with 3 entries)");
   SceneMesh m;
   const std::filesystem::path given = f.string("mesh", std::nullopt);
   if (given.empty()) f.fail("mesh", "must name a mesh file (OBJ, STL or PLY)");
   m.file = (std::filesystem::path(scene.file).parent_path() / given).lexically_normal().string();
-  m.rotation = toVec3(f.numbers("rotation", std::vector<double>{0, 0, 0}, {3}));
+  if (with_rotation) m.rotation = toVec3(f.numbers("rotation", std::vector<double>{0, 0, 0}, {3}));
   m.scale = f.number("scale", 1.0, 0, 1e6, true);
   try {
     m.triangles = std::make_shared<const TriangleMesh>(loadTriangleMesh(m.file));
@@ -243,31 +244,69 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   return m;
 }
 
+// A rotation (degrees) or angular velocity (degrees/s): a number in 2D (about z), x, y, z in 3D.
+Vec3 parseRotation(JsonFields& f, const std::string& key, int dimension) {
+  if (dimension == 2) return {0, 0, f.number(key, 0.0)};
+  return toVec3(f.numbers(key, std::vector<double>(3, 0.0), {3}));
+}
+
+std::vector<ColliderKey> parseKeyframes(const Json& keys, const JsonFields& collider,
+                                        const Scene& scene) {
+  const std::vector<int> dims{scene.authored_dimension};
+  std::vector<ColliderKey> out;
+  if (keys.empty()) collider.fail("keyframes", "must hold at least one key");
+  for (size_t i = 0; i < keys.size(); ++i) {
+    JsonFields k(keys[i], collider.fieldPath("keyframes") + "[" + std::to_string(i) + "]",
+                 scene.file);
+    ColliderKey key;
+    key.time = k.number("time", std::nullopt, 0);
+    if (!out.empty() && !(key.time > out.back().time))
+      k.fail("time", "must be later than the key before (" + std::to_string(out.back().time) +
+                         " s); keys are in time order");
+    key.position = toVec3(k.numbers("position", std::nullopt, dims));
+    key.rotation = parseRotation(k, "rotation", scene.authored_dimension);
+    k.finish();
+    out.push_back(key);
+  }
+  return out;
+}
+
 ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   ColliderParams c;
-  const auto shape = f.choice("shape", {"half_space", "sphere", "box", "mesh"}, std::nullopt);
+  const auto shape = f.choice("shape", {"half_space", "sphere", "box", "drum", "mesh"}, std::nullopt);
   c.shape = shape == "half_space" ? ColliderShape::HalfSpace
             : shape == "sphere"   ? ColliderShape::Sphere
-            : shape == "box"      ? ColliderShape::Box
-                                  : ColliderShape::Mesh;
-  c.position = toVec3(f.numbers("position", std::nullopt, dims));
+            : shape == "drum"     ? ColliderShape::Drum
+            : shape == "mesh"     ? ColliderShape::Mesh
+                                  : ColliderShape::Box;
+  if (const Json* keys = f.array("keyframes", false)) {
+    for (const char* motion : {"position", "velocity", "rotation", "angular_velocity"})
+      if (f.has(motion)) f.fail(motion, "cannot be given with keyframes; the keys set the motion");
+    c.keyframes = parseKeyframes(*keys, f, scene);
+    c.position = c.keyframes.front().position;
+    c.rotation = c.keyframes.front().rotation;
+  } else {
+    c.position = toVec3(f.numbers("position", std::nullopt, dims));
+    c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
+    c.rotation = parseRotation(f, "rotation", scene.authored_dimension);
+    c.angular_velocity = parseRotation(f, "angular_velocity", scene.authored_dimension);
+  }
   if (c.shape == ColliderShape::Mesh) {
-    c.mesh = parseSceneMesh(f, scene);
+    c.mesh = parseSceneMesh(f, scene, false);
     // A collider may reach beyond the grid, but its distance field spans the whole mesh.
     if (const std::string problem = meshFitProblem(c.mesh, c.position, scene.extent(), false);
         !problem.empty())
       f.fail("scale", problem);
   } else if (c.shape == ColliderShape::HalfSpace) {
     c.normal = unitDirection(f, "normal", toVec3(f.numbers("normal", std::nullopt, dims)));
-  } else if (c.shape == ColliderShape::Sphere) {
+  } else if (c.shape == ColliderShape::Box) {
+    c.size = positiveExtents(f, "size", scene.authored_dimension);
+  } else {
     c.radius = f.number("radius", std::nullopt);
     if (!(c.radius > 0)) f.fail("radius", "must be positive; allowed: (0, inf) m");
-  } else {
-    c.size = positiveExtents(f, "size", scene.authored_dimension);
   }
-  c.velocity = toVec3(f.numbers("velocity", std::vector<double>(dims[0], 0.0), dims));
   c.type = parseColliderType(f, "type", "separating");
   c.friction = f.number("friction", c.friction, 0, 1e3);
   f.finish();
@@ -357,7 +396,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
                                    : BodyShape::Points;
   if (b.shape == BodyShape::Points) return parsePointsBody(f, b, scene, scene_fields);
   if (b.shape == BodyShape::Mesh) {
-    b.mesh = parseSceneMesh(f, scene);
+    b.mesh = parseSceneMesh(f, scene, true);
     b.center = toVec3(f.numbers("position", std::nullopt, dims));
     b.angular_velocity = toVec3(f.numbers("angular_velocity", std::vector<double>{0, 0, 0}, {3}));
   } else {

@@ -62,26 +62,38 @@ void writeMesh(const SceneMesh& m, Json& j) {
   j["shape"] = "mesh";
   // Absolute: run.json's copy of the scene lies in another folder than the scene file.
   j["mesh"] = std::filesystem::absolute(m.file).string();
-  j["rotation"] = entries(m.rotation, 3);
+  if (m.rotation != Vec3{}) j["rotation"] = entries(m.rotation, 3);
   j["scale"] = m.scale;
 }
 
+// A rotation or angular velocity as the file gives it: z's alone in 2D.
+Json rotationJson(const Vec3& degrees, int dimension) {
+  return dimension == 2 ? Json(degrees[2]) : entries(degrees, 3);
+}
+
 Json colliderJson(const ColliderParams& c, int dimension) {
-  Json j = {{"position", entries(c.position, dimension)},
-            {"velocity", entries(c.velocity, dimension)},
-            {"type", colliderTypeName(c.type)},
-            {"friction", c.friction}};
+  Json j = {{"type", colliderTypeName(c.type)}, {"friction", c.friction}};
+  if (c.keyframes.empty()) {
+    j["position"] = entries(c.position, dimension);
+    j["velocity"] = entries(c.velocity, dimension);
+    j["rotation"] = rotationJson(c.rotation, dimension);
+    j["angular_velocity"] = rotationJson(c.angular_velocity, dimension);
+  }
+  for (const ColliderKey& k : c.keyframes)
+    j["keyframes"].push_back({{"time", k.time},
+                              {"position", entries(k.position, dimension)},
+                              {"rotation", rotationJson(k.rotation, dimension)}});
   if (c.shape == ColliderShape::HalfSpace) {
     j["shape"] = "half_space";
     j["normal"] = entries(c.normal, dimension);
-  } else if (c.shape == ColliderShape::Sphere) {
-    j["shape"] = "sphere";
-    j["radius"] = c.radius;
   } else if (c.shape == ColliderShape::Mesh) {
     writeMesh(c.mesh, j);
-  } else {
+  } else if (c.shape == ColliderShape::Box) {
     j["shape"] = "box";
     j["size"] = entries(c.size, dimension);
+  } else {
+    j["shape"] = c.shape == ColliderShape::Sphere ? "sphere" : "drum";
+    j["radius"] = c.radius;
   }
   return j;
 }

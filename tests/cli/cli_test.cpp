@@ -9,9 +9,11 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -492,20 +494,30 @@ TEST(Cli, RenderRedrawsSavedFrames) {
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
 }
 
-// run.json records the scene's colliders; `snowsim render` draws them from there, and refuses a
-// run.json whose colliders it cannot read before writing anything.
+// run.json records the scene's colliders and colliders.json where they are at every frame;
+// `snowsim render` draws them from there, and refuses a run.json whose colliders it cannot read
+// before writing anything.
 TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   const fs::path out = freshDir("render_colliders");
   ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
                        " --set time.duration=0.02 --no-mp4 --width 200 --height 160" +
                        R"( --set 'colliders=[{"shape": "box", "position": [0.02, 0.02],)" +
-                       R"( "size": [0.02, 0.04], "velocity": [0.1, 0]}]')")
+                       R"( "size": [0.02, 0.04], "velocity": [0.1, 0], "angular_velocity": 900}]')")
                 .code,
             0);
   auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
   ASSERT_EQ(summary["colliders"].size(), 1u);
   EXPECT_EQ(summary["colliders"][0]["shape"], "box");
   EXPECT_EQ(summary["colliders"][0]["velocity"][0], 0.1);
+  // Frame 1 at 0.02 s: moved 2 mm along x, turned 18 degrees about z.
+  const auto frames = nlohmann::json::parse(std::ifstream(out / "colliders.json"))["frames"];
+  ASSERT_EQ(frames.size(), 2u);
+  const auto& box = frames[1]["colliders"][0];
+  EXPECT_EQ(frames[1]["time"], 0.02);
+  EXPECT_NEAR(box["position"][0].get<double>(), 0.022, 1e-15);
+  EXPECT_NEAR(box["rotation"][0].get<double>(), std::cos(std::numbers::pi / 20), 1e-12);  // w = cos(9 deg)
+  EXPECT_NEAR(box["rotation"][3].get<double>(), std::sin(std::numbers::pi / 20), 1e-12);
+  EXPECT_NEAR(box["matrix"][1][0].get<double>(), std::sin(std::numbers::pi / 10), 1e-12);
   const auto image = [&](const std::string& name) {
     std::ifstream in(out / name, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
@@ -514,10 +526,9 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
   EXPECT_EQ(image("frame_00001.png"), from_run) << "render draws what run drew, collider too";
 
-  summary["colliders"] = nlohmann::json::array();
-  std::ofstream(out / "run.json") << summary.dump();
+  fs::remove(out / "colliders.json");  // run.json's collider, moved on without turning
   ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
-  EXPECT_NE(image("frame_00001.png"), from_run) << "without the collider the frame differs";
+  EXPECT_NE(image("frame_00001.png"), from_run) << "the collider unturned differs";
 
   summary["colliders"] = {{{"shape", "cone"}}};
   std::ofstream(out / "run.json") << summary.dump();

@@ -1,6 +1,8 @@
 // The ground and collider meshes: where their triangles lie and which way they face.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "render/meshes.h"
 
 namespace snowsim {
@@ -34,6 +36,44 @@ TEST(Meshes, BoxHasSixOutwardFaces) {
     const glm::vec3 from_centre = p.position - glm::vec3(0.2f, 0.1f, 0.15f);
     EXPECT_GT(glm::dot(from_centre, p.normal), 0) << "normals point out of the box";
     EXPECT_NEAR(std::abs(from_centre.x), 0.01f, 1e-6f);
+  }
+}
+
+TEST(Meshes, ATurnedBoxIsDrawnTurned) {
+  // A box 0.1 m long along its local x, turned 90 degrees about z: drawn long along y.
+  SnapshotCollider box;
+  box.shape = SnapshotCollider::Shape::Box;
+  box.position = {0.2, 0.1, 0.15};
+  box.size = {0.1, 0.02, 0.02};
+  box.rotation = {std::sqrt(0.5), 0, 0, std::sqrt(0.5)};
+  for (const MeshVertex& p : meshOf(box, 3)) {
+    const glm::vec3 from_centre = p.position - glm::vec3(0.2f, 0.1f, 0.15f);
+    EXPECT_NEAR(std::abs(from_centre.x), 0.01f, 1e-6f);
+    EXPECT_NEAR(std::abs(from_centre.y), 0.05f, 1e-6f);
+    EXPECT_GT(glm::dot(from_centre, p.normal), 0) << "normals point out of the box";
+  }
+}
+
+TEST(Meshes, ADrumIsAWallAroundItsAxisSeenFromInside) {
+  SnapshotCollider drum;
+  drum.shape = SnapshotCollider::Shape::Drum;
+  drum.position = {0.2, 0.1, 0.15};
+  drum.radius = 0.08;
+  drum.size = {0.16, 0.16, 0.3};
+  const glm::vec3 axis(0.2f, 0.1f, 0.15f);
+  const auto wall = meshOf(drum, 3);
+  ASSERT_FALSE(wall.empty());
+  for (const MeshVertex& p : wall) {
+    const glm::vec3 radial(p.position.x - axis.x, p.position.y - axis.y, 0);
+    EXPECT_NEAR(glm::length(radial), 0.08f, 1e-6f);
+    EXPECT_NEAR(std::abs(p.position.z - axis.z), 0.15f, 1e-6f);
+    EXPECT_LT(glm::dot(radial, p.normal), 0) << "the wall faces its axis";
+  }
+  drum.position[2] = 0;  // 2D: a ring just outside the radius
+  for (const MeshVertex& p : meshOf(drum, 2)) {
+    const float r = glm::length(p.position - glm::vec3(0.2f, 0.1f, 0));
+    EXPECT_GE(r, 0.08f - 1e-6f);
+    EXPECT_LE(r, 0.08f * 1.15f + 1e-6f);
   }
 }
 

@@ -336,6 +336,31 @@ TEST(Scene, ThreeDimensionalScenesCannotRunIn2D) {
       << message;
 }
 
+TEST(Scene, CollidersMoveByVelocitiesOrByKeyframes) {
+  const std::string keyed = R"({"name": "t", "grid": {"cells": [10, 12], "cell_size": 0.01},
+    "bodies": [{"shape": "ball", "center": [0.05, 0.06], "radius": 0.01}],
+    "colliders": [{"shape": "box", "size": [0.02, 0.01], "keyframes": [
+      {"time": 0, "position": [0.02, 0.02]}, {"time": 1, "position": [0.08, 0.02], "rotation": 45}
+    ]}]})";
+  const Scene scene = loadScene(writeTemp(keyed));
+  ASSERT_EQ(scene.colliders[0].keyframes.size(), 2u);
+  EXPECT_EQ(scene.colliders[0].keyframes[1].rotation, (Vec3{0, 0, 45}));  // 2D: about z
+  EXPECT_EQ(scene.colliders[0].position, (Vec3{0.02, 0.02, 0}));          // the first key's
+
+  const std::pair<std::string, std::string> mistakes[] = {
+      {"colliders.0.keyframes.1.time=0",
+       "colliders[0].keyframes[1].time: must be later than the key before"},
+      {"colliders.0.velocity=[1,0]", "colliders[0].velocity: cannot be given with keyframes"},
+      {"colliders.0.keyframes=[]", "colliders[0].keyframes: must hold at least one key"},
+      {"colliders.0.keyframes.0.rotation=[0,0,45]",
+       "colliders[0].keyframes[0].rotation: expected a number"},
+      {"colliders.0.shape=\"drum\"", "colliders[0].radius"}};
+  for (const auto& [assignment, expected] : mistakes) {
+    const std::string message = errorOf(keyed, {assignment});
+    EXPECT_NE(message.find(expected), std::string::npos) << assignment << ": " << message;
+  }
+}
+
 // Table 1 of the report: particle counts on its 10x12x1 grid at 27 particles per cell.
 struct TableRow {
   const char* scene;

@@ -84,7 +84,8 @@ std::vector<SnapshotCollider> collidersFromJson(const nlohmann::json& colliders,
       const auto known = std::find_if(kShapes.begin(), kShapes.end(),
                                       [&](Shape s) { return shape == shapeName(s); });
       if (known == kShapes.end())
-        throw InputError(where + ".shape: \"" + shape + "\"; allowed: plane, sphere, box, drum, mesh");
+        throw InputError(where + ".shape: \"" + shape +
+                         "\"; allowed: plane, sphere, box, drum, mesh");
       c.shape = *known;
       c.position = j.at("position").get<std::array<double, 3>>();
       // Runs before colliders turned recorded no rotation.

@@ -275,7 +275,8 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   ColliderParams c;
-  const auto shape = f.choice("shape", {"half_space", "sphere", "box", "drum", "mesh"}, std::nullopt);
+  const auto shape =
+      f.choice("shape", {"half_space", "sphere", "box", "drum", "mesh"}, std::nullopt);
   c.shape = shape == "half_space" ? ColliderShape::HalfSpace
             : shape == "sphere"   ? ColliderShape::Sphere
             : shape == "drum"     ? ColliderShape::Drum

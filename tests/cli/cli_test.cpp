@@ -515,7 +515,8 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   const auto& box = frames[1]["colliders"][0];
   EXPECT_EQ(frames[1]["time"], 0.02);
   EXPECT_NEAR(box["position"][0].get<double>(), 0.022, 1e-15);
-  EXPECT_NEAR(box["rotation"][0].get<double>(), std::cos(std::numbers::pi / 20), 1e-12);  // w = cos(9 deg)
+  EXPECT_NEAR(box["rotation"][0].get<double>(), std::cos(std::numbers::pi / 20),
+              1e-12);  // w = cos(9 deg)
   EXPECT_NEAR(box["rotation"][3].get<double>(), std::sin(std::numbers::pi / 20), 1e-12);
   EXPECT_NEAR(box["matrix"][1][0].get<double>(), std::sin(std::numbers::pi / 10), 1e-12);
   const auto image = [&](const std::string& name) {

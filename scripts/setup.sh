@@ -8,8 +8,8 @@ packages=(
   build-essential cmake ninja-build pkg-config clang-format
   # sim/: linear algebra (OpenMP comes with g++)
   libeigen3-dev
-  # sim/geometry/: assimp reads OBJ, STL and PLY meshes; OpenVDB turns a mesh into a signed
-  # distance field (its headers need Boost's)
+  # meshes and volumes: assimp reads OBJ, STL and PLY meshes (sim/geometry/); OpenVDB turns a
+  # mesh into a signed distance field and writes the --vdb volumes (its headers need Boost's)
   libassimp-dev libopenvdb-dev libboost-dev
   # scene files and the command line
   nlohmann-json3-dev libcli11-dev
@@ -22,8 +22,6 @@ packages=(
   gnuplot-nox openmpi-bin
   # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
   clang libclang-rt-14-dev llvm
-  # --vdb volumes (sim/io/vdb.cpp)
-  libopenvdb-dev
   # tests/export: the Blender loader script and the VDB import in Debian's Blender 3.4.1 (about
   # 30 s to install; the test skips itself without it)
   blender

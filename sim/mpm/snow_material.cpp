@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace snowsim {
 
 template <class T>
 LameOf<T> hardenedLame(const SnowMaterial& m, std::type_identity_t<T> J_P) {
-  const T e = std::exp(T(m.xi) * (1 - J_P));  // eq. 8
+  const T e = std::clamp(  // eq. 8, bounded
+      std::exp(T(m.xi) * (1 - J_P)), T(m.hardening_min),
+      T(std::min<Real>(m.hardening_max, std::numeric_limits<T>::max())));
   return {T(m.mu0()) * e, T(m.lambda0()) * e};
 }
 

@@ -16,14 +16,20 @@ struct SnowMaterial {
   Real theta_c = 2.5e-2;  // critical compression
   Real theta_s = 7.5e-3;  // critical stretch
   Real xi = 10;           // hardening coefficient
+  // Bounds on the hardening factor e^{xi (1 - J_P)}: the paper's eq. 8 has none, and without a
+  // lower one snow stretched past theta_s softens without end and turns to dust at fine cells
+  // (docs/snow-at-scale.md); the upper one bounds the stiffest wave speed, hence the step.
+  Real hardening_min = 0;
+  Real hardening_max = 1e300;
 
   // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
   Real mu0() const { return E0 / (2 * (1 + nu)); }
   Real lambda0() const { return E0 * nu / ((1 + nu) * (1 - 2 * nu)); }
 };
 
-// Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 e^{xi (1 - J_P)}, same for
-// lambda), in the precision T of the particle's state.
+// Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 h, lambda = lambda0 h with the
+// hardening factor h = e^{xi (1 - J_P)} clamped to [hardening_min, hardening_max]), in the
+// precision T of the particle's state.
 template <class T>
 struct LameOf {
   T mu;

@@ -240,6 +240,8 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.theta_c = f.number("theta_c", m.theta_c, 0, 1, true, true);
   m.theta_s = f.number("theta_s", m.theta_s, 0, 1, true, true);
   m.xi = f.number("xi", m.xi, 0, 1e3);
+  m.hardening_min = f.number("hardening_min", m.hardening_min, 0, 1);
+  m.hardening_max = f.number("hardening_max", m.hardening_max, 1, 1e300);
   f.finish();
   return m;
 }

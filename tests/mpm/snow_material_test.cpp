@@ -16,6 +16,22 @@ TEST(SnowMaterial, LameFromYoungAndPoisson) {
   EXPECT_NEAR(compacted.mu, m.mu0() * std::exp(1.0), 1e-6);
 }
 
+// The hardening factor e^{xi (1 - J_P)} is clamped to the material's bounds, in either precision;
+// inside them it is the paper's eq. 8.
+TEST(SnowMaterial, HardeningStaysWithinItsBounds) {
+  SnowMaterial m;
+  m.hardening_min = 0.2;
+  m.hardening_max = 5;
+  EXPECT_NEAR(hardenedLame(m, 1.02).mu, m.mu0() * std::exp(-0.2), 1e-9);  // inside
+  EXPECT_NEAR(hardenedLame(m, 3.0).mu, 0.2 * m.mu0(), 1e-9);              // stretched: e^-20
+  EXPECT_NEAR(hardenedLame(m, 3.0).lambda, 0.2 * m.lambda0(), 1e-9);
+  EXPECT_NEAR(hardenedLame(m, 0.5).mu, 5 * m.mu0(), 1e-9);  // compacted: e^5 = 148
+  EXPECT_NEAR(hardenedLame<float>(m, 3.0f).mu, 0.2f * float(m.mu0()), 1e-2f);
+  EXPECT_NEAR(hardenedLame<float>(m, 0.5f).lambda, 5 * float(m.lambda0()), 1e-1f);
+  // Unbounded by default, as in the paper: J_P = 0.5 hardens e^5 times.
+  EXPECT_NEAR(hardenedLame(SnowMaterial{}, 0.5).mu, SnowMaterial{}.mu0() * std::exp(5.0), 1e-6);
+}
+
 TEST(SnowMaterial, TwoByTwoSvdReconstructs) {
   Mat<2> F;
   F << 1.1, 0.3, -0.2, 0.7;

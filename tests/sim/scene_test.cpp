@@ -84,6 +84,19 @@ TEST(Scene, NegativeTimeStepIsOutOfRange) {
       << message;
 }
 
+TEST(Scene, HardeningBoundsAreReadAndChecked) {
+  const Scene s =
+      loadScene(writeTemp(kMinimal), {"material.hardening_min=0.2", "material.hardening_max=5"});
+  EXPECT_DOUBLE_EQ(s.material.hardening_min, 0.2);
+  EXPECT_DOUBLE_EQ(s.material.hardening_max, 5);
+  EXPECT_NE(errorOf(kMinimal, {"material.hardening_min=2"})
+                .find("material.hardening_min: 2 is out of range; allowed: [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"material.hardening_max=0.5"})
+                .find("material.hardening_max: 0.5 is out of range"),
+            std::string::npos);
+}
+
 TEST(Scene, BodyOutsideTheGridIsRejected) {
   const std::string message = errorOf(kMinimal, {"bodies.0.center=[0.095,0.06]"});
   EXPECT_NE(message.find("bodies[0].center: the body reaches outside the grid along axis x"),

@@ -78,11 +78,16 @@ void applySolver(const std::string& label, Scene& scene) {
   scene.mpm.adaptive_dt = false;
   const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
   if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
+  // The axes beside the solvers: explicit MLS in single precision, and explicit MLS at the
+  // default adaptive step (capped by the sweep's dt).
+  if (label == "mpm_mls_float") scene.mpm.precision = MpmPrecision::Float;
+  if (label == "mpm_mls_adaptive") scene.mpm.adaptive_dt = true;
   if (label == "mpm_pic_flip")
     scene.mpm.transfer = MpmTransfer::PicFlip;
   else if (label == "mpm_apic" || label == "mpm_apic_semi")
     scene.mpm.transfer = MpmTransfer::Apic;
-  else if (label == "mpm_mls" || label == "mpm_mls_semi")
+  else if (label == "mpm_mls" || label == "mpm_mls_semi" || label == "mpm_mls_float" ||
+           label == "mpm_mls_adaptive")
     scene.mpm.transfer = MpmTransfer::Mls;
   else
     throw InputError("study: unknown solver label '" + label + "'");
@@ -135,7 +140,13 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              0.3,
              {1.4e4, 1.4e5, 1.4e6},
              false}};
-  throw InputError("--preset: unknown preset '" + name + "'; allowed: quick, full, stability");
+  if (name == "axes") {  // precision and step policy against the reference, explicit MLS
+    const std::vector<std::string> axes = {"mpm_mls", "mpm_mls_float", "mpm_mls_adaptive"};
+    return {{{"snowball_drop", "column_thrown_ball"}, axes, {0.002, 5e-4, 2e-4}, {1}, {9}, 0.5},
+            {{"study_smash_3d"}, axes, {0.002, 5e-4}, {1}, {4}, 0.3}};
+  }
+  throw InputError("--preset: unknown preset '" + name +
+                   "'; allowed: quick, full, stability, axes");
 }
 
 // The reference: the most accurate solver (APIC MPM, its step at the CFL limit and at most a
@@ -601,7 +612,8 @@ void addStudyCommand(CLI::App& app) {
   auto options = std::make_shared<StudyOptions>();
   CLI::App* cmd = app.add_subcommand(
       "study", "Measure speed against accuracy over solvers, time steps and resolutions");
-  cmd->add_option("--preset", options->preset, "quick | full | stability")->capture_default_str();
+  cmd->add_option("--preset", options->preset, "quick | full | stability | axes")
+      ->capture_default_str();
   cmd->add_flag_callback(
       "--quick", [options] { options->preset = "quick"; },
       "Same as --preset quick: a few minutes on 2 cores, for CI");

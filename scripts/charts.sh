@@ -1,17 +1,19 @@
 #!/bin/sh
 # Regenerates the charts of docs/study.md from the study's CSVs (snowsim study -o CSV).
-# Usage: scripts/charts.sh [results.csv] [stability.csv] [output dir]
+# Usage: scripts/charts.sh [results.csv] [stability.csv] [output dir] [axes.csv]
 # A chart whose rows are missing from the CSV is left as it is (and said so).
 set -eu
 csv=${1:-docs/study/results.csv}
 stability=${2:-docs/study/stability.csv}
 out=${3:-docs/charts}
+axes=${4:-docs/study/axes.csv}
 [ -r "$csv" ] || { echo "charts: cannot read $csv (run: snowsim study -o $csv)" >&2; exit 2; }
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
 [ -r "$stability" ] && stability=$(cd "$(dirname "$stability")" && pwd)/$(basename "$stability")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+touch "$work/axes_rows"
 
 # Columns: 1 build 2 scene 3 solver 4 dt 5 refine 6 ppc 7 duration 8 E0 9 cell_size 10 status
 # 11 wall_s 12 steps 13 particles 14 err_density 15 err_height_m 16 err_com_m 17 free_fall_err_m
@@ -19,6 +21,7 @@ trap 'rm -rf "$work"' EXIT
 # drawn.
 latest() { awk -F, -v b="$(tail -n 1 "$1" | cut -d, -f1)" 'NR > 1 && $1 == b' "$1"; }
 latest "$csv" > "$work/rows"
+[ -r "$axes" ] && latest "$axes" > "$work/axes_rows"
 solvers="density_hybrid mpm_pic_flip mpm_apic mpm_mls mpm_apic_semi mpm_mls_semi"
 for s in $solvers; do
   # error against wall time, every scene of the 2D report
@@ -115,6 +118,26 @@ cd "$work"
     echo 'set style data linespoints; set key top right'
     echo "plot 'pile.x2' u 1:2 pt 7 t 'x2', 'pile.x4' u 1:2 pt 7 t 'x4', 'pile.x8' u 1:2 pt 7 t 'x8'"
     plots="$plots pile_claim"
+  fi
+  # The study's axes (--preset axes): centre-of-mass error against dt, double, float and the
+  # adaptive step (its dt is the cap), one panel per scene.
+  axes_scenes=$(awk -F, '$3 == "mpm_mls_float" || $3 == "mpm_mls_adaptive" {print $2}' axes_rows |
+    sort -u)
+  if [ -n "$axes_scenes" ]; then
+    echo "set output '$out/precision_and_step.png'"
+    echo "set terminal pngcairo size $((380 * $(echo "$axes_scenes" | wc -l))),420 font ',10' noenhanced"
+    echo "set multiplot layout 1,$(echo "$axes_scenes" | wc -l) title 'Explicit MLS against the reference: double, float, adaptive step (dt: its cap); runs that diverged are left out'"
+    echo 'unset logscale; set logscale xy; set xlabel "dt (s)"; set ylabel "centre-of-mass error (m)"; set key inside top left'
+    for scene in $axes_scenes; do
+      for s in mpm_mls mpm_mls_float mpm_mls_adaptive; do
+        awk -F, -v s=$s -v sc=$scene '$3 == s && $2 == sc && $16 != "" {print $4, $16}' axes_rows |
+          sort -g > "axes.$scene.$s"
+      done
+      echo "set title '$scene'"
+      echo "plot 'axes.$scene.mpm_mls' u 1:2 w lp pt 7 t 'double', 'axes.$scene.mpm_mls_float' u 1:2 w lp pt 6 ps 1.6 t 'float', 'axes.$scene.mpm_mls_adaptive' u 1:2 w lp pt 5 t 'adaptive'"
+    done
+    echo 'unset multiplot'
+    plots="$plots precision_and_step"
   fi
 } > charts.gp
 

@@ -5,6 +5,7 @@
 
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
+#include "sim/distributed/rank_exchange.h"
 #include "sim/mpm/mpm_solver.h"
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
@@ -17,6 +18,10 @@ template <int D>
 class SimulationOf final : public Simulation {
  public:
   SimulationOf(const Scene& scene, int threads) : scene_(scene) {
+    if (scene.solver != SolverType::Mpm && worldExchange().ranks() > 1)
+      throw InputError(scene.file +
+                       ": the report's method runs in one process; across MPI ranks only "
+                       "\"solver\": \"mpm\" is distributed");
     if (scene.solver == SolverType::Mpm && scene.mpm.precision == MpmPrecision::Float)
       solver_ = std::make_unique<MpmSolver<D, float>>(scene, sampleBodies<D>(scene), threads);
     else if (scene.solver == SolverType::Mpm)
@@ -68,6 +73,7 @@ class SimulationOf final : public Simulation {
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particles().size(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
+  std::vector<RankTraffic> rankTraffic() const override { return solver_->rankTraffic(); }
   double stepSeconds() const override { return solver_->stepSeconds(); }
   StepLimit stepLimit() const override { return solver_->stepLimit(); }
   std::vector<StageSeconds> stepStages() const override {

@@ -31,6 +31,8 @@ class Simulation {
   virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
+  // Under mpirun, what each rank sent the others (sim/distributed/); every rank must ask.
+  virtual std::vector<RankTraffic> rankTraffic() const = 0;
   // The wall time of the steps so far.
   virtual double stepSeconds() const = 0;
   // What bounds the time step now (sim/solver.h); a look over every particle.

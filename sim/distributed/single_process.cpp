@@ -1,0 +1,15 @@
+// The world of one process, for a build without MPI.
+#include "sim/distributed/rank_exchange.h"
+
+namespace snowsim {
+
+RankExchange& worldExchange() {
+  static SingleProcess world;
+  return world;
+}
+
+bool builtWithMpi() {
+  return false;
+}
+
+}  // namespace snowsim

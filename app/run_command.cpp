@@ -114,8 +114,8 @@ nlohmann::json rankSummary(const std::vector<RankTraffic>& ranks) {
 }
 
 // --estimate: the cost before the run and the time from its first steps; writes nothing.
-void estimateOnly(const Scene& scene, int threads) {
-  const auto simulation = makeSimulation(scene, threads);
+void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
+  const auto simulation = makeSimulation(scene, threads, world);
   CostEstimate estimate(scene, simulation->particleCount(), simulation->stepLimit());
   std::fprintf(stderr, "%s\n", estimate.before().c_str());
   std::string measured;
@@ -160,6 +160,11 @@ void replayFrames(const std::string& dir, int count, RenderSink& sink) {
 
 // run, or resume from `saved` (the scene and state of a checkpoint of options.out).
 void run(const RunOptions& options, const SavedRun* saved = nullptr) {
+  // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
+  // stderr goes nowhere (an error they meet, rank 0 meets too).
+  RankExchange& world = worldExchange();
+  const bool writes = world.rank() == 0;
+  if (!writes && !std::freopen("/dev/null", "w", stderr)) throw InputError("no /dev/null");
   Scene scene = saved ? saved->scene : resolvedScene(options);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
@@ -172,7 +177,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
-  if (options.estimate_only) return estimateOnly(scene, options.threads);
+  if (options.estimate_only) return estimateOnly(scene, options.threads, world);
   const std::string video_name = scene.name + ".mp4";
   if (saved && options.render.mp4 && !options.render.png)
     throw InputError(saved->file +
@@ -180,11 +185,6 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
                      "would rebuild the video's first frames; a run to be resumed with --mp4 "
                      "keeps its PNGs");
   const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
-  // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
-  // stderr goes nowhere (an error they meet, rank 0 meets too).
-  RankExchange& world = worldExchange();
-  const bool writes = world.rank() == 0;
-  if (!writes && !std::freopen("/dev/null", "w", stderr)) throw InputError("no /dev/null");
   std::string refused;
   if (writes) try {
       if (saved)
@@ -201,7 +201,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   FrameSinks sinks;
   {
     const StageClock::Scope time(&clock, "setup");
-    simulation = makeSimulation(scene, options.threads);
+    simulation = makeSimulation(scene, options.threads, world);
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
     if (saved) simulation->loadState(saved->solver_state, saved->file);
     if (options.ply && writes)

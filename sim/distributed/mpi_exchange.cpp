@@ -87,10 +87,7 @@ class MpiWorld final : public RankExchange {
 }  // namespace
 
 RankExchange& worldExchange() {
-  if (!launchedByMpi()) {
-    static SingleProcess alone;
-    return alone;
-  }
+  if (!launchedByMpi()) return oneProcess();
   static MpiWorld world;
   return world;
 }

@@ -46,6 +46,12 @@ class SingleProcess final : public RankExchange {
   std::vector<std::string> allToAll(const std::vector<std::string>& to) override { return to; }
 };
 
+// A world of one process, for what runs alone (studies, figures, tests) even under mpirun.
+inline RankExchange& oneProcess() {
+  static SingleProcess one;
+  return one;
+}
+
 // The processes this one was launched with: MPI_COMM_WORLD when snowsim is built with MPI and
 // started by mpirun (MPI initialised on first use, finalised at exit), else a world of one.
 RankExchange& worldExchange();

@@ -4,8 +4,7 @@
 namespace snowsim {
 
 RankExchange& worldExchange() {
-  static SingleProcess world;
-  return world;
+  return oneProcess();
 }
 
 bool builtWithMpi() {

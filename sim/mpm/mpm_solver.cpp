@@ -41,7 +41,8 @@ Particles<D, T> inPrecision(Particles<D> particles) {
 }  // namespace
 
 template <int D, class T>
-MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
+MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads,
+                           RankExchange& world)
     : params_(scene.mpm),
       material_(scene.material),
       gravity_(sceneGravity<D>(scene).template cast<T>()),
@@ -52,7 +53,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
           params_.kernel, [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); }))),
       colliders_(makeColliders<D>(scene)),
       schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads),
-      slabs_(worldExchange(), grid_) {
+      slabs_(world, grid_) {
   if (!double_precision && params_.integrator == MpmIntegrator::SemiImplicit)
     throw InputError(scene.file +
                      ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"");
@@ -542,7 +543,7 @@ void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
   // the very steps the run would have.
   StateWriter mine;
   saveRankState(mine);
-  const std::vector<std::string> ranks = worldExchange().allGather(mine.bytes());
+  const std::vector<std::string> ranks = slabs_.allGather(mine.bytes());
   out.value(static_cast<std::uint32_t>(ranks.size()));
   for (const std::string& bytes : ranks) out.array(std::vector<char>(bytes.begin(), bytes.end()));
 }

@@ -29,8 +29,10 @@ class MpmSolver final : public Solver<D> {
   static constexpr bool double_precision = std::is_same_v<T, Real>;
 
   // threads: how many threads a step may use; 0 takes the OpenMP default (OMP_NUM_THREADS, else
-  // every core). A float solver runs the explicit integrator only.
-  MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0);
+  // every core). A float solver runs the explicit integrator only. world: the ranks the run is
+  // split across, each building the same solver (sim/distributed/).
+  MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0,
+            RankExchange& world = oneProcess());
 
   Real stableTimeStep() const override;
   StepLimit stepLimit() const override;

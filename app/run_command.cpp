@@ -27,6 +27,7 @@
 #include "render/scene_render.h"
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
+#include "sim/distributed/rank_exchange.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
@@ -97,9 +98,24 @@ nlohmann::json stageTimes(const Simulation& simulation, const StageClock& app, d
   return stages;
 }
 
+// Under mpirun: per rank, what it sent the others, a step on average and in all.
+nlohmann::json rankSummary(const std::vector<RankTraffic>& ranks) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const RankTraffic& t : ranks) {
+    const double steps = std::max(1L, t.steps);
+    list.push_back({{"halo_nodes_a_step", t.halo_nodes / steps},
+                    {"halo_bytes_a_step", t.halo_bytes / steps},
+                    {"particles_sent", t.particles_sent},
+                    {"particle_bytes", t.particle_bytes},
+                    {"rebalances", t.rebalances},
+                    {"rebalances_that_moved_a_cut", t.moved_cuts}});
+  }
+  return list;
+}
+
 // --estimate: the cost before the run and the time from its first steps; writes nothing.
-void estimateOnly(const Scene& scene, int threads) {
-  const auto simulation = makeSimulation(scene, threads);
+void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
+  const auto simulation = makeSimulation(scene, threads, world);
   CostEstimate estimate(scene, simulation->particleCount(), simulation->stepLimit());
   std::fprintf(stderr, "%s\n", estimate.before().c_str());
   std::string measured;
@@ -144,6 +160,11 @@ void replayFrames(const std::string& dir, int count, RenderSink& sink) {
 
 // run, or resume from `saved` (the scene and state of a checkpoint of options.out).
 void run(const RunOptions& options, const SavedRun* saved = nullptr) {
+  // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
+  // stderr goes nowhere (an error they meet, rank 0 meets too).
+  RankExchange& world = worldExchange();
+  const bool writes = world.rank() == 0;
+  if (!writes && !std::freopen("/dev/null", "w", stderr)) throw InputError("no /dev/null");
   Scene scene = saved ? saved->scene : resolvedScene(options);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
@@ -156,7 +177,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
-  if (options.estimate_only) return estimateOnly(scene, options.threads);
+  if (options.estimate_only) return estimateOnly(scene, options.threads, world);
   const std::string video_name = scene.name + ".mp4";
   if (saved && options.render.mp4 && !options.render.png)
     throw InputError(saved->file +
@@ -164,26 +185,32 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
                      "would rebuild the video's first frames; a run to be resumed with --mp4 "
                      "keeps its PNGs");
   const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
-  if (saved)
-    prepareOutputDirectory(options.out);
-  else
-    prepareRunDirectory(options.out, video_name, options.overwrite);
+  std::string refused;
+  if (writes) try {
+      if (saved)
+        prepareOutputDirectory(options.out);
+      else
+        prepareRunDirectory(options.out, video_name, options.overwrite);
+    } catch (const InputError& e) {
+      refused = e.what();
+    }
+  if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
   const auto start = std::chrono::steady_clock::now();
   StageClock clock;  // this thread's stages; the solver times its own
   std::unique_ptr<Simulation> simulation;
   FrameSinks sinks;
   {
     const StageClock::Scope time(&clock, "setup");
-    simulation = makeSimulation(scene, options.threads);
+    simulation = makeSimulation(scene, options.threads, world);
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
     if (saved) simulation->loadState(saved->solver_state, saved->file);
-    if (options.ply)
+    if (options.ply && writes)
       sinks.push_back(
           std::make_unique<FileSink>(options.out, "ply", writePly, up, "write PLY", clock));
-    if (options.vdb)
+    if (options.vdb && writes)
       sinks.push_back(
           std::make_unique<FileSink>(options.out, "vdb", writeVdb, up, "write VDB", clock));
-    if (options.render.png || options.render.mp4) {
+    if ((options.render.png || options.render.mp4) && writes) {
       auto render_sink = std::make_unique<RenderSink>(
           render, options.render.png ? options.out : "",
           options.render.mp4 ? options.out + "/" + video_name : "", video, &clock);
@@ -193,7 +220,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   }
   // A second signal ends the run at once: the unfinished video goes with it.
   std::optional<UnfinishedFile> partial_video;
-  if (options.render.mp4) partial_video.emplace(options.out + "/" + video_name + ".part");
+  if (options.render.mp4 && writes) partial_video.emplace(options.out + "/" + video_name + ".part");
 
   catchInterrupts();
   const int frames = scene.frameCount();
@@ -212,11 +239,18 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
     nlohmann::json state = {
         {"args", options.args}, {"next_frame", next_frame}, {"step_watch", step_watch.state()}};
     if (options.render.png || options.render.mp4) recordRendering(state, render, scene);
-    saveCheckpoint(options.out, scene, *simulation, state);
+    if (writes)
+      saveCheckpoint(options.out, scene, *simulation, state);
+    else
+      simulation->saveState();  // this rank's share, which rank 0 gathers
   };
   // A signal stops the run at the end of the current step: the frame it interrupts is not
-  // written, every earlier one is complete.
-  const auto interrupted = [] { return interruptSignal() != 0; };
+  // written, every earlier one is complete. Every rank stops at the same step, whichever got it.
+  int stop_signal = 0;
+  const auto interrupted = [&] {
+    stop_signal = static_cast<int>(world.maxOverRanks(interruptSignal()));
+    return stop_signal != 0;
+  };
   const auto betweenSteps = [&] {
     for (const std::string& note : {estimate.afterStep(*simulation), step_watch.check(*simulation)})
       if (!note.empty()) progress.note(note);
@@ -242,7 +276,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   // Stopped short: the state after the last step, from which resume lands on the same steps.
   if (written <= frames)
     checkpoint(frame);
-  else
+  else if (writes)
     removeCheckpoints(options.out);
   progress.done();
   const double wall =
@@ -288,15 +322,16 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   summary["quality"] = options.quality;
   summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
   summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
-  if (const int sig = interruptSignal()) summary["interrupted_by_signal"] = sig;
-  if (!scene.colliders.empty())
+  if (world.ranks() > 1) summary["ranks"] = rankSummary(simulation->rankTraffic());
+  if (stop_signal) summary["interrupted_by_signal"] = stop_signal;
+  if (writes && !scene.colliders.empty())
     writeFileAtomically(options.out + "/colliders.json",
                         colliderFramesJson(scene, written).dump(1) + "\n");
-  writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
-  if (const int sig = interruptSignal())
-    throw Interrupted(sig, "interrupted after " + std::to_string(written) + " of " +
-                               std::to_string(frames + 1) +
-                               " frames; what was written is complete");
+  if (writes) writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
+  if (stop_signal)
+    throw Interrupted(stop_signal, "interrupted after " + std::to_string(written) + " of " +
+                                       std::to_string(frames + 1) +
+                                       " frames; what was written is complete");
 }
 
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene

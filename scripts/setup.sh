@@ -18,8 +18,9 @@ packages=(
   libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
   # tests (ffmpeg gives ffprobe for reading videos back)
   libgtest-dev libgmock-dev ffmpeg
-  # charts for the speed/accuracy study, and OpenMPI's launcher for its shards
-  gnuplot-nox openmpi-bin
+  # charts for the speed/accuracy study; OpenMPI: the launcher for its shards and for one run
+  # across ranks (its headers for SNOWSIM_MPI)
+  gnuplot-nox openmpi-bin libopenmpi-dev
   # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
   clang libclang-rt-14-dev llvm
   # tests/export: the Blender loader script and the VDB import in Debian's Blender 3.4.1 (about

@@ -16,11 +16,16 @@ namespace {
 template <int D>
 class SimulationOf final : public Simulation {
  public:
-  SimulationOf(const Scene& scene, int threads) : scene_(scene) {
+  SimulationOf(const Scene& scene, int threads, RankExchange& world) : scene_(scene) {
+    if (scene.solver != SolverType::Mpm && world.ranks() > 1)
+      throw InputError(scene.file +
+                       ": the report's method runs in one process; across MPI ranks only "
+                       "\"solver\": \"mpm\" is distributed");
     if (scene.solver == SolverType::Mpm && scene.mpm.precision == MpmPrecision::Float)
-      solver_ = std::make_unique<MpmSolver<D, float>>(scene, sampleBodies<D>(scene), threads);
+      solver_ =
+          std::make_unique<MpmSolver<D, float>>(scene, sampleBodies<D>(scene), threads, world);
     else if (scene.solver == SolverType::Mpm)
-      solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene), threads);
+      solver_ = std::make_unique<MpmSolver<D>>(scene, sampleBodies<D>(scene), threads, world);
     else
       solver_ = std::make_unique<DensityHybridSolver<D>>(scene, sampleBodies<D>(scene));
   }
@@ -68,6 +73,7 @@ class SimulationOf final : public Simulation {
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particles().size(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
+  std::vector<RankTraffic> rankTraffic() const override { return solver_->rankTraffic(); }
   double stepSeconds() const override { return solver_->stepSeconds(); }
   StepLimit stepLimit() const override { return solver_->stepLimit(); }
   std::vector<StageSeconds> stepStages() const override {
@@ -95,9 +101,9 @@ class SimulationOf final : public Simulation {
 
 }  // namespace
 
-std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads) {
-  if (scene.dimension == 2) return std::make_unique<SimulationOf<2>>(scene, threads);
-  return std::make_unique<SimulationOf<3>>(scene, threads);
+std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads, RankExchange& world) {
+  if (scene.dimension == 2) return std::make_unique<SimulationOf<2>>(scene, threads, world);
+  return std::make_unique<SimulationOf<3>>(scene, threads, world);
 }
 
 }  // namespace snowsim

@@ -10,6 +10,7 @@
 
 #include "sim/core/krylov_result.h"
 #include "sim/core/snapshot.h"
+#include "sim/distributed/rank_exchange.h"
 #include "sim/scene/scene.h"
 #include "sim/solver.h"
 
@@ -31,6 +32,8 @@ class Simulation {
   virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
+  // Under mpirun, what each rank sent the others (sim/distributed/); every rank must ask.
+  virtual std::vector<RankTraffic> rankTraffic() const = 0;
   // The wall time of the steps so far.
   virtual double stepSeconds() const = 0;
   // What bounds the time step now (sim/solver.h); a look over every particle.
@@ -48,6 +51,9 @@ class Simulation {
 
 // Builds the particles and the solver the scene asks for, in the scene's dimension. `threads`
 // bounds the solver's threads; 0 takes the OpenMP default (OMP_NUM_THREADS, else every core).
-std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads = 0);
+// world: the MPI ranks one MPM run is split across (worldExchange() under mpirun), each calling
+// this alike.
+std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads = 0,
+                                           RankExchange& world = oneProcess());
 
 }  // namespace snowsim

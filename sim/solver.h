@@ -13,6 +13,7 @@
 #include "sim/core/particles.h"
 #include "sim/core/snapshot.h"
 #include "sim/core/stage_clock.h"
+#include "sim/distributed/slab_decomposition.h"
 #include "sim/io/checkpoint.h"
 #include "sim/scene/scene.h"
 
@@ -82,6 +83,10 @@ class Solver {
   virtual std::vector<StageSeconds> stageSeconds() const { return {}; }
 
   virtual const Particles<D>& particles() const = 0;
+
+  // What each MPI rank sent the others so far, in rank order, on every rank (none for a solver
+  // that runs in one process).
+  virtual std::vector<RankTraffic> rankTraffic() const { return {}; }
 
   // The linear solves of its semi-implicit steps so far (none for an explicit solver).
   virtual SolveTally implicitSolves() const { return {}; }

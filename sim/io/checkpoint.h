@@ -90,6 +90,7 @@ class StateReader {
   }
   // Throws unless every byte was read.
   void finish() const;
+  const std::string& file() const { return file_; }
   [[noreturn]] void fail(const std::string& problem) const;
 
  private:

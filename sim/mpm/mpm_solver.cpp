@@ -41,7 +41,8 @@ Particles<D, T> inPrecision(Particles<D> particles) {
 }  // namespace
 
 template <int D, class T>
-MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads)
+MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads,
+                           RankExchange& world)
     : params_(scene.mpm),
       material_(scene.material),
       gravity_(sceneGravity<D>(scene).template cast<T>()),
@@ -51,14 +52,19 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
       inertia_inverse_(T(withKernel(
           params_.kernel, [&]<class Kernel>() { return inertiaInverse<Kernel>(grid_.h); }))),
       colliders_(makeColliders<D>(scene)),
-      schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads) {
+      schedule_(grid_, particles_.size(), params_.transfer != MpmTransfer::Mls, threads),
+      slabs_(world, grid_) {
   if (!double_precision && params_.integrator == MpmIntegrator::SemiImplicit)
     throw InputError(scene.file +
                      ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"");
+  if (slabs_.distributed() && semiImplicit())
+    throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
+                     "across MPI ranks only \"explicit\" is distributed");
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
+  total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
   colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
@@ -67,6 +73,11 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   withKernel(params_.kernel, [&]<class Kernel>() {
     parallelFor(&schedule_, particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
   });
+  // Every rank has built the whole scene and its volumes alike; each keeps its slab's particles.
+  if (slabs_.distributed()) {
+    slabs_.keepOwn(particles_);
+    schedule_.resize(particles_.x);
+  }
   measureParticles();
 }
 
@@ -83,6 +94,7 @@ void MpmSolver<D, T>::advance(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel,
                         [&]<class Transfer, class Kernel>() { stepWith<Transfer, Kernel>(T(dt)); });
   collectMeasures();
+  if (slabs_.migrate(particles_, this->steps() + 1)) schedule_.resize(particles_.x);
 }
 
 template <int D, class T>
@@ -90,16 +102,23 @@ template <class Transfer, class Kernel>
 void MpmSolver<D, T>::stepWith(T dt) {
   const bool semi_implicit = semiImplicit();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
-  // stages each meet on their own; the explicit stages share the team's threads.
-  schedule_.step(particles_, !semi_implicit, [&] {
+  // stages each meet on their own; the explicit stages share the team's threads, but for the
+  // exchanges between ranks, which only the calling thread makes.
+  schedule_.step(particles_, !semi_implicit && !slabs_.distributed(), [&] {
     // 1, 3: mass, momentum and forces to the grid.
     schedule_.scatter([&](int p, PartialGrid& g) { scatterParticle<Transfer, Kernel>(p, g, dt); });
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
-    schedule_.updateNodes(fields_, [&](int k) {
+    const auto updateNode = [&](int k) {
       velocityFromMomentum<Transfer>(k);
       accelerate<Transfer>(k, dt);
       if (!semi_implicit) collideNode(k);
-    });
+    };
+    if (slabs_.distributed())  // the nodes shared with the neighbour ranks summed first
+      schedule_.updateNodes(fields_, updateNode, [&] {
+        slabs_.sumHalo(fields_, schedule_.activeNodes(), !Transfer::mls);
+      });
+    else
+      schedule_.updateNodes(fields_, updateNode);
     if (semi_implicit)  // 5 + 6: collided v*, then the solve
       schedule_.timed("implicit solve", [&] { solveImplicitVelocities(dt); });
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
@@ -349,10 +368,18 @@ void MpmSolver<D, T>::collectMeasures() {
     fastest_signal_ = std::max(fastest_signal_, m.signal);
     finite_ = finite_ && m.finite;
   }
+  Real energy = schedule_.orderedSum();
+  if (slabs_.distributed()) {  // the whole snow's, alike on every rank
+    std::vector<Real> largest = {fastest_speed_, fastest_signal_, finite_ ? 0.0 : 1.0};
+    energy = slabs_.maxAndSum(largest, energy);
+    fastest_speed_ = largest[0];
+    fastest_signal_ = largest[1];
+    finite_ = largest[2] == 0;
+  }
   // The gravitational energy counts from the domain's lowest point along gravity, so it is >= 0.
   Real lowest = 0;  // min over the domain box of -g.x
   for (int a = 0; a < D; ++a) lowest += std::min(Real(0), -gravity_[a] * grid_.extent()[a]);
-  energy_ = schedule_.orderedSum() - total_mass_ * lowest;
+  energy_ = energy - total_mass_ * lowest;
 }
 
 template <int D, class T>
@@ -463,41 +490,85 @@ void MpmSolver<D, T>::checkDivergence(Real dt) const {
 
 template <int D, class T>
 void MpmSolver<D, T>::describe(Snapshot& snapshot) const {
-  const int n = particles_.size();
+  const MpmParticles<D, T>& particles = outputParticles();
+  const int n = particles.size();
   snapshot.density.resize(n);
   snapshot.plastic_j.resize(n);
   for (int p = 0; p < n; ++p) {  // in creation order, as the snapshot's positions
-    const T J = particles_.F_E[p].determinant() * particles_.J_P[p];
-    const int id = particles_.id[p];
-    snapshot.density[id] = static_cast<float>(particles_.mass[p] / (particles_.volume[p] * J));
-    snapshot.plastic_j[id] = static_cast<float>(particles_.J_P[p]);
+    const T J = particles.F_E[p].determinant() * particles.J_P[p];
+    const int id = particles.id[p];
+    snapshot.density[id] = static_cast<float>(particles.mass[p] / (particles.volume[p] * J));
+    snapshot.plastic_j[id] = static_cast<float>(particles.J_P[p]);
   }
   const Real area = grid_.h * grid_.h;
   domainNodeValues(
       grid_, [&](int k) { return fields_.mass[k] / area; }, snapshot.grid.node_density);
+  slabs_.combineNodeValues(snapshot.grid.node_density);
+}
+
+template <int D, class T>
+const MpmParticles<D, T>& MpmSolver<D, T>::outputParticles() const {
+  if (!slabs_.distributed()) return particles_;
+  if (gathered_at_step_ != this->steps()) {
+    slabs_.gatherById(particles_, gathered_);
+    gathered_at_step_ = this->steps();
+  }
+  return gathered_;
 }
 
 template <int D, class T>
 const Particles<D>& MpmSolver<D, T>::particles() const {
+  const MpmParticles<D, T>& particles = outputParticles();
   if constexpr (double_precision) {
-    return particles_;
+    return particles;
   } else {
     if (converted_at_step_ == this->steps()) return particles_in_double_;
     converted_at_step_ = this->steps();
     Particles<D>& out = particles_in_double_;
-    castEach(particles_.x, out.x);
-    castEach(particles_.v, out.v);
-    out.mass.assign(particles_.mass.begin(), particles_.mass.end());
-    out.volume.assign(particles_.volume.begin(), particles_.volume.end());
-    out.density.assign(particles_.density.begin(), particles_.density.end());
-    out.body = particles_.body;
-    out.id = particles_.id;
+    castEach(particles.x, out.x);
+    castEach(particles.v, out.v);
+    out.mass.assign(particles.mass.begin(), particles.mass.end());
+    out.volume.assign(particles.volume.begin(), particles.volume.end());
+    out.density.assign(particles.density.begin(), particles.density.end());
+    out.body = particles.body;
+    out.id = particles.id;
     return out;
   }
 }
 
 template <int D, class T>
 void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
+  if (!slabs_.distributed()) return saveRankState(out);
+  // Each rank's state in rank order (rank 0 writes the file): a resume under as many ranks takes
+  // the very steps the run would have.
+  StateWriter mine;
+  saveRankState(mine);
+  const std::vector<std::string> ranks = slabs_.allGather(mine.bytes());
+  out.value(static_cast<std::uint32_t>(ranks.size()));
+  for (const std::string& bytes : ranks) out.array(std::vector<char>(bytes.begin(), bytes.end()));
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::loadSolverState(StateReader& in) {
+  if (!slabs_.distributed()) return loadRankState(in);
+  const auto ranks = in.value<std::uint32_t>();
+  if (static_cast<int>(ranks) != slabs_.ranks())
+    in.fail("a run across " + std::to_string(ranks) +
+            " MPI ranks resumes across as many (mpirun -np " + std::to_string(ranks) + "), not " +
+            std::to_string(slabs_.ranks()));
+  std::vector<char> mine;
+  for (int r = 0; r < slabs_.ranks(); ++r) {
+    std::vector<char> bytes;
+    in.array(bytes);
+    if (r == slabs_.rank()) mine.swap(bytes);
+  }
+  StateReader rank_state(std::string_view(mine.data(), mine.size()), in.file());
+  loadRankState(rank_state);
+  rank_state.finish();
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::saveRankState(StateWriter& out) const {
   saveParticleArrays(out, particles_);
   for (const Collider<D>& c : colliders_) out.value(c.position);  // moved by the steps
   schedule_.saveState(out);
@@ -507,11 +578,22 @@ void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
   out.value(finite_);
   out.value(step_when_exceeded_);
   out.value(solves_);
+  if (slabs_.distributed()) slabs_.saveState(out);
 }
 
 template <int D, class T>
-void MpmSolver<D, T>::loadSolverState(StateReader& in) {
-  loadParticleArrays(in, particles_);
+void MpmSolver<D, T>::loadRankState(StateReader& in) {
+  if (slabs_.distributed()) {  // as many particles as the rank had, of any ids of the scene
+    particles_.forEachArray([&](auto& a) {
+      in.array(a);
+      if (!a.empty() && a.size() != particles_.x.size()) in.fail("arrays of unequal lengths");
+    });
+    for (const int id : particles_.id)
+      if (id < 0 || id >= total_particles_) in.fail("particle id " + std::to_string(id));
+    schedule_.resize(particles_.x);
+  } else {
+    loadParticleArrays(in, particles_);
+  }
   for (Collider<D>& c : colliders_) in.value(c.position);
   schedule_.loadState(in);
   for (Real* r :
@@ -520,9 +602,10 @@ void MpmSolver<D, T>::loadSolverState(StateReader& in) {
   in.value(finite_);
   in.value(step_when_exceeded_);
   in.value(solves_);
+  if (slabs_.distributed()) slabs_.loadState(in);
   // Each step writes the grid nodes near the snow and leaves the rest zero, as here.
   fields_.resize(grid_.nodeCount());
-  converted_at_step_ = -1;
+  converted_at_step_ = gathered_at_step_ = -1;
 }
 
 template class MpmSolver<2, double>;

@@ -13,6 +13,7 @@
 
 #include "sim/core/collider.h"
 #include "sim/core/grid.h"
+#include "sim/distributed/slab_decomposition.h"
 #include "sim/mpm/implicit_solve.h"
 #include "sim/mpm/mpm_particles.h"
 #include "sim/mpm/snow_material.h"
@@ -28,8 +29,10 @@ class MpmSolver final : public Solver<D> {
   static constexpr bool double_precision = std::is_same_v<T, Real>;
 
   // threads: how many threads a step may use; 0 takes the OpenMP default (OMP_NUM_THREADS, else
-  // every core). A float solver runs the explicit integrator only.
-  MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0);
+  // every core). A float solver runs the explicit integrator only. world: the ranks the run is
+  // split across, each building the same solver (sim/distributed/).
+  MpmSolver(const Scene& scene, Particles<D> particles, int threads = 0,
+            RankExchange& world = oneProcess());
 
   Real stableTimeStep() const override;
   StepLimit stepLimit() const override;
@@ -38,6 +41,7 @@ class MpmSolver final : public Solver<D> {
   const Particles<D>& particles() const override;
   void describe(Snapshot& snapshot) const override;
   SolveTally implicitSolves() const override { return solves_; }
+  std::vector<RankTraffic> rankTraffic() const override { return slabs_.everyRanksTraffic(); }
 
   const GridGeometry<D>& grid() const { return grid_; }
   const GridFields<D, T>& fields() const { return fields_; }
@@ -65,6 +69,11 @@ class MpmSolver final : public Solver<D> {
     return schedule_.stageTimes(thread);
   }
   long binnings() const { return schedule_.binnings(); }
+  // The split across MPI ranks (one rank when not launched by mpirun): this rank's slab, and what
+  // it sent to the others.
+  const SlabDecomposition<D>& slabs() const { return slabs_; }
+  // This rank's particles, in the order it stores them (all of them on one rank).
+  int ownParticles() const { return particles_.size(); }
 
   // Stages run alone, for tests: P2G (1 + 3), which drops a scatter no grid stage summed; the
   // grid velocities from it (4, no collisions); G2P and the particle updates (8, 7, 9, 10).
@@ -86,6 +95,12 @@ class MpmSolver final : public Solver<D> {
   void checkDivergence(Real dt) const override;
   void saveSolverState(StateWriter& out) const override;
   void loadSolverState(StateReader& in) override;
+  // What this rank holds; under MPI the checkpoint holds each rank's in turn.
+  void saveRankState(StateWriter& out) const;
+  void loadRankState(StateReader& in);
+  // Every rank's particles in the order of their ids, once per step that asks (this rank's alone
+  // when not distributed): what the output sees.
+  const MpmParticles<D, T>& outputParticles() const;
   template <class Transfer, class Kernel>
   void stepWith(T dt);
 
@@ -145,6 +160,9 @@ class MpmSolver final : public Solver<D> {
   Real collider_speed_ = 0;  // the fastest any point of a collider moves (fastestColliderSpeed)
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;
+  mutable SlabDecomposition<D> slabs_;  // a gather for output reads every rank, also in const
+  mutable MpmParticles<D, T> gathered_;
+  mutable long gathered_at_step_ = -1;
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
   KrylovResult last_solve_;
@@ -157,6 +175,7 @@ class MpmSolver final : public Solver<D> {
   Real energy_ = 0;          // kinetic + gravitational (J)
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
+  int total_particles_ = 0;      // of every rank
   bool colliders_move_ = false;  // a moving collider adds energy: no energy check then
   // How far the energy may grow before a step counts as blown up. Measured on the snowball drop
   // at fixed dt (docs/mpm.md): stable steps keep it within 0.1%, a step 1.6x beyond the stable one

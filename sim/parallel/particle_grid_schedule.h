@@ -67,6 +67,9 @@ class ParticleGridSchedule final : public LoopRunner {
   // The parts of the next step for the thread count now (step() calls it too); returns how many.
   int prepare();
   int parts() const { return team_.parts(); }
+  // Another count of particles, or the same ones in another order (they moved between ranks):
+  // binned anew at x, and stored in the new sorted order from the next step on.
+  void resize(const std::vector<Position>& x);
 
   // One step: body() runs the step's stages (scatter, updateNodes, passOverParticles), on every
   // thread of the team at once if `shared` (then nothing in it may throw), else on this thread
@@ -97,6 +100,12 @@ class ParticleGridSchedule final : public LoopRunner {
   void scatter(F&& f);
   template <class F>
   void updateNodes(Fields& fields, F&& f);
+  // updateNodes with between() run on the calling thread once every node is summed and before f
+  // runs on any (e.g. to add what other ranks' particles gave the nodes they share).
+  template <class F, class Between>
+  void updateNodes(Fields& fields, F&& f, Between&& between);
+  // The nodes the particles reach now (sim/parallel/row_binning.h).
+  const NodeBox<D>& activeNodes() const { return binning_.active(); }
   template <class Measure, class F>
   void passOverParticles(std::string_view stage, const std::vector<Position>& x,
                          std::vector<Measure>& measures, F&& f);
@@ -269,6 +278,26 @@ void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
 }
 
 template <int D, class P>
+template <class F, class Between>
+void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f, Between&& between) {
+  const NodeBox<D>& box = binning_.updated();
+  const int width = box.hi[0] - box.lo[0];
+  const int lines = width > 0 ? box.count() / width : 0;
+  const StageClock::Scope time = timeStage("grid update");
+  const auto forMyLines = [&](int part, auto&& node) {
+    const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
+    for (int line = first; line < last; ++line) {
+      const int k = box.flatIndex(grid_, line * width);
+      for (int i = 0; i < width; ++i) node(k + i);
+    }
+  };
+  team_.forEachPart(
+      "grid sum", [&](int part) { forMyLines(part, [&](int k) { sumPartialGrids(k, fields); }); });
+  team_.serially("grid exchange", between);
+  team_.forEachPart("grid update", [&](int part) { forMyLines(part, f); });
+}
+
+template <int D, class P>
 template <class Measure, class F>
 void ParticleGridSchedule<D, P>::passOverParticles(std::string_view stage,
                                                    const std::vector<Position>& x,
@@ -375,6 +404,17 @@ ParticleGridSchedule<D, P>::ParticleGridSchedule(const GridGeometry<D>& grid, in
     if (force_field) g.force.resize(grid.nodeCount());
   }
   prepare();
+}
+
+template <int D, class P>
+void ParticleGridSchedule<D, P>::resize(const std::vector<Position>& x) {
+  const int particles = static_cast<int>(x.size());
+  particles_ = particles;
+  binning_.resize(particles);
+  binning_.bin(team_, particle_shares_, x);
+  std::apply([&](auto&... spare) { (spare.resize(particles), ...); }, spare_);
+  chunk_sums_.assign((particles + chunk - 1) / chunk, 0);
+  binned_since_stored_ = true;
 }
 
 template <int D, class P>

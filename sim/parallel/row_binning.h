@@ -36,6 +36,13 @@ class RowBinning {
 
   // The counting sort's state for this many parts.
   void setParts(int parts);
+  // Another count of particles (they moved between ranks): binned anew before the next scatter.
+  void resize(int particles) {
+    particles_ = particles;
+    order_.resize(particles);
+    particle_block_.resize(particles);
+    must_bin_ = true;
+  }
   // Bins the particles at x as two stages of the team, part r counting and placing the indices
   // shares.start(r) .. start(r + 1): a stable sort, whose result does not depend on the split.
   // Then rows are split among the parts by the shares, and the active nodes found. T: the

@@ -22,6 +22,8 @@
 #include "tests/cli/run_snowsim.h"
 
 namespace fs = std::filesystem;
+using snowsim_test::bytesOf;
+using snowsim_test::frames;
 using snowsim_test::freshDir;
 using snowsim_test::runSnowsim;
 using snowsim_test::startSnowsim;
@@ -30,23 +32,6 @@ namespace {
 
 std::string sceneFile(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
-}
-
-std::string bytesOf(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
-}
-
-// Every frame file of a run directory, by name, with its bytes.
-std::map<std::string, std::string> frames(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("frame_", 0) == 0) files[name] = bytesOf(entry.path());
-  }
-  return files;
 }
 
 // Waits (up to a minute) until `path` exists, then `delay` more; false if it never appeared.

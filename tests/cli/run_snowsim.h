@@ -7,6 +7,9 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -45,6 +48,23 @@ inline pid_t startSnowsim(std::vector<std::string> args) {
     _exit(127);
   }
   return child;
+}
+
+inline std::string bytesOf(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Every frame file of a run directory, by name, with its bytes.
+inline std::map<std::string, std::string> frames(const std::filesystem::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("frame_", 0) == 0) files[name] = bytesOf(entry.path());
+  }
+  return files;
 }
 
 // An empty path under the temporary directory, private to this test process.

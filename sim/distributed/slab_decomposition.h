@@ -1,0 +1,352 @@
+// One simulation split across ranks (docs/scale-out.md): each rank owns a slab of cell layers
+// along one axis and the particles whose cell lies in it. A particle of cell c reaches the nodes
+// c-1 .. c+2, so the ranks on either side of a cut at layer c share the four node layers c-1 ..
+// c+2: after the scatter each sends the other its partial sums there and adds what it receives,
+// which gives both the same node values (a + b == b + a in floating point) and no second exchange.
+// A slab is at least four cells wide, so no node is shared by three ranks. After the advection the
+// particles that left their slab move to their new rank with every per-particle array; every
+// rebalance_interval steps the slabs are cut anew from a histogram of all ranks' particles along
+// the axis where the snow is longest. With one rank every operation returns at once.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sim/core/errors.h"
+#include "sim/core/grid.h"
+#include "sim/distributed/rank_exchange.h"
+#include "sim/io/checkpoint.h"
+
+namespace snowsim {
+
+// What a rank sent over the steps so far: the halo nodes, the particles that left its slab, and
+// the bytes of both.
+struct RankTraffic {
+  long steps = 0;
+  long halo_nodes = 0, halo_bytes = 0;
+  long particles_sent = 0, particle_bytes = 0;
+  long rebalances = 0;  // the slabs cut anew
+  long moved_cuts = 0;  // ... of which so many moved a cut
+};
+
+template <int D>
+class SlabDecomposition {
+ public:
+  static constexpr int min_slab_cells = 4;
+  static constexpr int rebalance_interval = 20;  // steps between re-cuts of the slabs
+
+  SlabDecomposition(RankExchange& world, const GridGeometry<D>& grid)
+      : world_(world), grid_(grid) {}
+
+  bool distributed() const { return world_.ranks() > 1; }
+  int rank() const { return world_.rank(); }
+  int ranks() const { return world_.ranks(); }
+  int axis() const { return axis_; }
+  // The first cell layer of each slab after the first, ascending.
+  const std::vector<int>& cuts() const { return cuts_; }
+  const RankTraffic& traffic() const { return traffic_; }
+  std::vector<std::string> allGather(std::string_view mine) const { return world_.allGather(mine); }
+  // Every rank's traffic, in rank order, on every rank.
+  std::vector<RankTraffic> everyRanksTraffic() const {
+    if (!distributed()) return {traffic_};
+    std::vector<RankTraffic> all;
+    for (const std::string& bytes : world_.allGather(asBytes(std::vector<RankTraffic>{traffic_})))
+      all.push_back(fromBytes<RankTraffic>(bytes)[0]);
+    return all;
+  }
+
+  // particles: the whole scene, alike on every rank; cuts the slabs and keeps this rank's.
+  template <class P>
+  void keepOwn(P& particles) {
+    if (!distributed()) return;
+    particles.forEachArray([&](auto& array) { used_.push_back(!array.empty()); });
+    cut(particles.x, false);
+    std::vector<char> mine(particles.size());
+    for (int p = 0; p < particles.size(); ++p) mine[p] = slabOf(particles.x[p]) == rank();
+    keepOnly(particles, mine);
+  }
+
+  // After the step `step` moved the particles: the slabs cut anew every rebalance_interval steps,
+  // then the particles outside this rank's slab sent to their own. Returns whether this rank's
+  // particles changed (their order too).
+  template <class P>
+  bool migrate(P& particles, long step) {
+    if (!distributed()) return false;
+    ++traffic_.steps;
+    if (step % rebalance_interval == 0) cut(particles.x, true);
+    std::vector<std::vector<int>> leaving(ranks());
+    std::vector<char> stays(particles.size());
+    for (int p = 0; p < particles.size(); ++p) {
+      const int owner = slabOf(particles.x[p]);
+      stays[p] = owner == rank();
+      if (!stays[p]) leaving[owner].push_back(p);
+    }
+    std::vector<std::string> to(ranks());
+    long sent = 0;
+    for (int r = 0; r < ranks(); ++r) {
+      to[r] = pack(particles, leaving[r]);
+      sent += static_cast<long>(leaving[r].size());
+      traffic_.particle_bytes += static_cast<long>(to[r].size());
+    }
+    traffic_.particles_sent += sent;
+    const std::vector<std::string> from = world_.allToAll(to);
+    bool received = false;
+    for (const std::string& bytes : from) received = received || !bytes.empty();
+    if (sent == 0 && !received) return false;
+    keepOnly(particles, stays);
+    for (const std::string& bytes : from) unpack(bytes, particles);  // in rank order
+    return true;
+  }
+
+  // Between the sum of the scatter's partial grids and the node update: the partial sums of the
+  // nodes this rank shares with its neighbours (mass, momentum in fields.velocity, the force when
+  // the scatter writes one), exchanged and added within this rank's active nodes.
+  template <class T>
+  void sumHalo(GridFields<D, T>& fields, const NodeBox<D>& active, bool force) {
+    if (!distributed()) return;
+    using V = Vec<D, T>;
+    std::vector<std::string> to(ranks());
+    const auto packBand = [&](int neighbour, int cut_layer) {
+      std::string& bytes = to[neighbour];
+      NodeBox<D> band = active;  // storage coordinates: node i at i + ghost
+      band.lo[axis_] = std::max(band.lo[axis_], cut_layer - 1 + GridGeometry<D>::ghost);
+      band.hi[axis_] = std::min(band.hi[axis_], cut_layer + 3 + GridGeometry<D>::ghost);
+      if (band.lo[axis_] >= band.hi[axis_]) return;
+      for (int n = 0, count = band.count(); n < count; ++n) {
+        const int k = band.flatIndex(grid_, n);
+        const bool written = fields.mass[k] != 0 || (fields.velocity[k].array() != 0).any() ||
+                             (force && (fields.force[k].array() != 0).any());
+        if (!written) continue;
+        append(bytes, k);
+        append(bytes, fields.mass[k]);
+        append(bytes, fields.velocity[k]);
+        if (force) append(bytes, fields.force[k]);
+        ++traffic_.halo_nodes;
+      }
+      traffic_.halo_bytes += static_cast<long>(bytes.size());
+    };
+    if (rank() > 0) packBand(rank() - 1, cuts_[rank() - 1]);
+    if (rank() + 1 < ranks()) packBand(rank() + 1, cuts_[rank()]);
+    const std::vector<std::string> from = world_.allToAll(to);
+    for (const std::string& bytes : from) {
+      for (size_t at = 0; at < bytes.size();) {
+        const int k = take<int>(bytes, at);
+        const T mass = take<T>(bytes, at);
+        const V momentum = take<V>(bytes, at);
+        const V node_force = force ? take<V>(bytes, at) : V::Zero();
+        if (!contains(active, k)) continue;  // no particle of this rank reaches it
+        fields.mass[k] += mass;
+        fields.velocity[k] += momentum;
+        if (force) fields.force[k] += node_force;
+      }
+    }
+  }
+
+  // The largest of each rank's values and the sum of its `sum` added in rank order (the same on
+  // every rank, run after run): what the time step and the blow-up check follow, in one exchange.
+  double maxAndSum(std::vector<double>& values, double sum) {
+    if (!distributed()) return sum;
+    values.push_back(sum);
+    sum = 0;
+    const size_t n = values.size();
+    for (const std::string& bytes : world_.allGather(asBytes(values))) {
+      const std::vector<double> theirs = fromBytes<double>(bytes);
+      for (size_t i = 0; i + 1 < n; ++i) values[i] = std::max(values[i], theirs[i]);
+      sum += theirs[n - 1];
+    }
+    values.pop_back();
+    return sum;
+  }
+  // Each rank's values, every rank getting the largest.
+  std::vector<double> maxOverRanks(std::vector<double> values) {
+    if (!distributed()) return values;
+    for (const std::string& bytes : world_.allGather(asBytes(values))) {
+      const std::vector<double> theirs = fromBytes<double>(bytes);
+      for (size_t i = 0; i < values.size(); ++i) values[i] = std::max(values[i], theirs[i]);
+    }
+    return values;
+  }
+
+  // Every rank's particles, in the order of their ids (the order of creation), on every rank.
+  template <class P>
+  void gatherById(const P& mine, P& all) {
+    std::vector<int> every(mine.size());
+    for (int p = 0; p < mine.size(); ++p) every[p] = p;
+    all = P();
+    // forEachArray hands out the arrays to change them; pack only reads them.
+    for (const std::string& bytes : world_.allGather(pack(const_cast<P&>(mine), every)))
+      unpack(bytes, all);
+    const std::vector<int> id = all.id;
+    all.forEachArray([&](auto& array) {
+      if (array.empty()) return;
+      auto by_id = array;
+      for (size_t p = 0; p < id.size(); ++p) by_id[id[p]] = array[p];
+      array.swap(by_id);
+    });
+  }
+
+  // 2D node values of the domain (domainNodeValues) from every rank: a rank holds the whole sum
+  // of each node its active box covers and zero at the others, so the largest is the node's.
+  void combineNodeValues(std::vector<float>& values) {
+    if (!distributed()) return;
+    for (const std::string& bytes : world_.allGather(asBytes(values))) {
+      const std::vector<float> theirs = fromBytes<float>(bytes);
+      for (size_t i = 0; i < values.size(); ++i) values[i] = std::max(values[i], theirs[i]);
+    }
+  }
+
+  // The cut, for a checkpoint of this rank's state.
+  void saveState(StateWriter& out) const {
+    out.value(axis_);
+    out.array(cuts_);
+    out.value(traffic_);
+  }
+  void loadState(StateReader& in) {
+    in.value(axis_);
+    in.array(cuts_, ranks() - 1);
+    in.value(traffic_);
+  }
+
+ private:
+  template <class T>
+  static void append(std::string& bytes, const T& value) {
+    bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
+  }
+  template <class T>
+  static T take(const std::string& bytes, size_t& at) {
+    T value;
+    std::memcpy(static_cast<void*>(&value), bytes.data() + at, sizeof value);
+    at += sizeof value;
+    return value;
+  }
+  template <class T>
+  static std::string asBytes(const std::vector<T>& values) {
+    return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+  }
+  template <class T>
+  static std::vector<T> fromBytes(const std::string& bytes) {
+    std::vector<T> values(bytes.size() / sizeof(T));
+    std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
+    return values;
+  }
+  bool contains(const NodeBox<D>& box, int k) const {
+    for (int a = 0; a < D; ++a) {
+      const int i = (k / grid_.stride[a]) % grid_.nodes[a];
+      if (i < box.lo[a] || i >= box.hi[a]) return false;
+    }
+    return true;
+  }
+
+  // The cell layer of position x along the axis, as the stencils find it, within the domain.
+  template <class T>
+  int layerOf(const Vec<D, T>& x) const {
+    const int cell = static_cast<int>(std::floor(x[axis_] * T(1 / grid_.h)));
+    return std::clamp(cell, 0, grid_.cells[axis_] - 1);
+  }
+  template <class T>
+  int slabOf(const Vec<D, T>& x) const {
+    const int layer = layerOf(x);
+    return static_cast<int>(std::upper_bound(cuts_.begin(), cuts_.end(), layer) - cuts_.begin());
+  }
+
+  // The slabs along the axis where the particles (every rank's when `gather`) spread farthest,
+  // cut so that each holds about the same count, and at least min_slab_cells layers.
+  template <class T>
+  void cut(const std::vector<Vec<D, T>>& x, bool gather) {
+    std::vector<double> reach(2 * D, -std::numeric_limits<double>::infinity());
+    for (const Vec<D, T>& p : x)
+      for (int a = 0; a < D; ++a) {
+        reach[a] = std::max(reach[a], -double(p[a]));
+        reach[D + a] = std::max(reach[D + a], double(p[a]));
+      }
+    if (gather) reach = maxOverRanks(reach);
+    int axis = -1;
+    for (int a = 0; a < D; ++a) {
+      if (grid_.cells[a] < min_slab_cells * ranks()) continue;
+      if (axis < 0 || reach[D + a] + reach[a] > reach[D + axis] + reach[axis]) axis = a;
+    }
+    if (axis < 0)
+      throw InputError("the grid has fewer than " + std::to_string(min_slab_cells * ranks()) +
+                       " cells along every axis: too few for " + std::to_string(ranks()) +
+                       " ranks, whose slabs take " + std::to_string(min_slab_cells) +
+                       " cells each at least");
+    axis_ = axis;
+    const int layers = grid_.cells[axis_];
+    std::vector<long> count(layers, 0);
+    for (const Vec<D, T>& p : x) ++count[layerOf(p)];
+    if (gather) {
+      const std::vector<std::string> all = world_.allGather(asBytes(count));
+      std::fill(count.begin(), count.end(), 0);
+      for (const std::string& bytes : all) {
+        const std::vector<long> theirs = fromBytes<long>(bytes);
+        for (int l = 0; l < layers; ++l) count[l] += theirs[l];
+      }
+    }
+    long total = 0;
+    for (const long c : count) total += c;
+    const std::vector<int> before = cuts_;
+    cuts_.assign(ranks() - 1, 0);
+    long below = 0;
+    int layer = 0;
+    for (int r = 1; r < ranks(); ++r) {
+      // The first layer with at least r/N of the particles below it, keeping every slab wide.
+      while (layer < layers && below * ranks() < total * r) below += count[layer++];
+      const int lowest = (r == 1 ? 0 : cuts_[r - 2]) + min_slab_cells;
+      const int highest = layers - (ranks() - r) * min_slab_cells;
+      cuts_[r - 1] = std::clamp(layer, lowest, highest);
+    }
+    ++traffic_.rebalances;
+    if (!before.empty() && before != cuts_) ++traffic_.moved_cuts;
+  }
+
+  // The bytes of particles `which`, each used array's elements in turn.
+  template <class P>
+  std::string pack(P& particles, const std::vector<int>& which) const {
+    std::string bytes;
+    int a = 0;
+    particles.forEachArray([&](auto& array) {
+      if (!used_[a++]) return;
+      for (const int p : which) append(bytes, array[p]);
+    });
+    return bytes;
+  }
+  template <class P>
+  void unpack(const std::string& bytes, P& particles) const {
+    size_t per_particle = 0;
+    int a = 0;
+    particles.forEachArray([&]<class E>(std::vector<E>&) {
+      if (used_[a++]) per_particle += sizeof(E);
+    });
+    const size_t count = bytes.size() / per_particle;
+    size_t at = 0;
+    a = 0;
+    particles.forEachArray([&]<class E>(std::vector<E>& array) {
+      if (!used_[a++]) return;
+      for (size_t i = 0; i < count; ++i) array.push_back(take<E>(bytes, at));
+    });
+  }
+  template <class P>
+  static void keepOnly(P& particles, const std::vector<char>& keep) {
+    particles.forEachArray([&](auto& array) {
+      if (array.empty()) return;
+      size_t kept = 0;
+      for (size_t p = 0; p < keep.size(); ++p)
+        if (keep[p]) array[kept++] = array[p];
+      array.resize(kept);
+    });
+  }
+
+  RankExchange& world_;
+  GridGeometry<D> grid_;
+  int axis_ = 0;
+  std::vector<int> cuts_;
+  std::vector<char> used_;  // per array of forEachArray: whether the particles use it
+  RankTraffic traffic_;
+};
+
+}  // namespace snowsim

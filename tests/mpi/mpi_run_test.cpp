@@ -1,0 +1,147 @@
+// One simulation across MPI ranks (sim/distributed/), run as a user would: mpirun -np N snowsim
+// run, oversubscribed on this machine, against the same scene in one process.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/io/ply.h"
+#include "tests/cli/run_snowsim.h"
+
+namespace fs = std::filesystem;
+using snowsim_test::frames;
+using snowsim_test::freshDir;
+using snowsim_test::runCommand;
+using snowsim_test::runSnowsim;
+
+namespace {
+
+const std::string kScene = std::string(SNOWSIM_SOURCE_DIR) + "/tests/mpi/smash.json";
+// Two frames of the smash (0.04 s, some 400 steps): the ball reaches the wall and flattens.
+const std::string kShort = " --set time.duration=0.04 --no-png --no-mp4 --threads 1";
+
+std::string mpirun(int ranks) {
+  return "mpirun --allow-run-as-root --oversubscribe -np " + std::to_string(ranks) + " " +
+         SNOWSIM_BINARY;
+}
+
+nlohmann::json summaryOf(const fs::path& dir) {
+  return nlohmann::json::parse(std::ifstream(dir / "run.json"));
+}
+
+// The largest difference of any particle's position between two runs' last frames (metres).
+double largestPositionDifference(const fs::path& a, const fs::path& b, const std::string& frame) {
+  const snowsim::Snapshot one = snowsim::readPly((a / frame).string());
+  const snowsim::Snapshot other = snowsim::readPly((b / frame).string());
+  EXPECT_EQ(one.position.size(), other.position.size());
+  double largest = 0;
+  for (size_t p = 0; p < std::min(one.position.size(), other.position.size()); ++p)
+    for (int axis = 0; axis < 3; ++axis)
+      largest =
+          std::max(largest, double(std::abs(one.position[p][axis] - other.position[p][axis])));
+  return largest;
+}
+
+class OneRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    single_ = freshDir("mpi_single");
+    const auto run = runSnowsim("run " + kScene + " -o " + single_.string() + kShort);
+    ASSERT_EQ(run.code, 0) << run.output;
+  }
+  static fs::path single_;
+};
+fs::path OneRun::single_;
+
+// Across 2 and 4 ranks the frames hold every particle in the order of one process's, at positions
+// that agree with it to round-off, and the snow crossed the slabs' cuts.
+TEST_F(OneRun, RanksAgreeWithOneProcessToRoundOff) {
+  for (const int ranks : {2, 4}) {
+    const fs::path out = freshDir("mpi_" + std::to_string(ranks));
+    const auto run = runCommand(mpirun(ranks) + " run " + kScene + " -o " + out.string() + kShort);
+    ASSERT_EQ(run.code, 0) << run.output;
+    const auto single = summaryOf(single_), split = summaryOf(out);
+    EXPECT_EQ(split["steps"], single["steps"]) << "the ranks agree on the time step";
+    ASSERT_EQ(split["ranks"].size(), ranks);
+    long sent = 0, moved_cuts = 0;
+    for (const auto& rank : split["ranks"]) {
+      sent += rank["particles_sent"].get<long>();
+      moved_cuts += rank["rebalances_that_moved_a_cut"].get<long>();
+      EXPECT_GT(rank["rebalances"].get<long>(), 1);
+    }
+    EXPECT_GT(sent, 0) << "no particle migrated";
+    EXPECT_GT(moved_cuts, 0) << "the slabs never followed the snow";
+    const snowsim::Snapshot last = snowsim::readPly((out / "frame_00002.ply").string());
+    ASSERT_EQ(last.position.size(), single["particles"].get<size_t>());
+    const double difference = largestPositionDifference(single_, out, "frame_00002.ply");
+    std::printf("%d ranks: largest position difference from one process after 0.04 s: %g m\n",
+                ranks, difference);
+    EXPECT_LT(difference, 1e-5) << "more than round-off (the cell is 0.01 m)";
+  }
+}
+
+// Two runs across as many ranks write byte-identical frames.
+TEST(Mpi, SameRanksGiveByteIdenticalFrames) {
+  const fs::path first = freshDir("mpi_first"), second = freshDir("mpi_second");
+  for (const fs::path& out : {first, second}) {
+    const auto run = runCommand(mpirun(2) + " run " + kScene + " -o " + out.string() + kShort);
+    ASSERT_EQ(run.code, 0) << run.output;
+  }
+  EXPECT_EQ(frames(first), frames(second));
+}
+
+// A run across 2 ranks stopped by SIGTERM to mpirun, resumed across 2 ranks, writes the frames of
+// the run never stopped.
+TEST(Mpi, ResumeAcrossRanksWritesTheFramesOfTheWholeRun) {
+  const std::string args =
+      " run " + kScene +
+      " --set time.duration=0.06 --no-png --no-mp4 --threads 1 --checkpoint-minutes 0";
+  const fs::path whole = freshDir("mpi_whole"), out = freshDir("mpi_stopped");
+  ASSERT_EQ(runCommand(mpirun(2) + args + " -o " + whole.string()).code, 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    freopen("/dev/null", "w", stdout);
+    freopen("/dev/null", "w", stderr);
+    const std::string command = mpirun(2) + args + " -o " + out.string();
+    execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), nullptr);
+    _exit(127);
+  }
+  for (int i = 0; i < 60000 && !fs::exists(out / "frame_00001.ply"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  kill(child, SIGTERM);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim")) << "stopped without a checkpoint";
+  EXPECT_EQ(summaryOf(out)["interrupted_by_signal"], SIGTERM);
+  // A checkpoint of 2 ranks is refused by another count, naming the count it needs.
+  const auto other = runCommand(mpirun(4) + " resume " + out.string());
+  EXPECT_EQ(other.code, 2);
+  EXPECT_NE(other.output.find("mpirun -np 2"), std::string::npos) << other.output;
+  const auto resumed = runCommand(mpirun(2) + " resume " + out.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(frames(out), frames(whole));
+  EXPECT_EQ(summaryOf(out)["steps"], summaryOf(whole)["steps"]);
+}
+
+// What is not distributed is refused with a message, before anything is written.
+TEST(Mpi, RefusesWhatIsNotDistributed) {
+  const fs::path out = freshDir("mpi_refused");
+  const auto implicit = runCommand(mpirun(2) + " run " + kScene + " -o " + out.string() +
+                                   " --set mpm.integrator=semi_implicit");
+  EXPECT_EQ(implicit.code, 2);
+  EXPECT_NE(implicit.output.find("only \"explicit\" is distributed"), std::string::npos)
+      << implicit.output;
+  EXPECT_FALSE(fs::exists(out / "run.json"));
+}
+
+}  // namespace

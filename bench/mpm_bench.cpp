@@ -3,7 +3,10 @@
 // bit for bit, and what two one-thread solvers side by side reach), bytes per particle; with
 // "profile", also where each step's time goes, stage by stage and thread by thread.
 // Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d]
-//                  [double | float | both=both] [profile]
+//                  [double | float | both=both] [profile] [one-thread]
+// "one-thread" runs only the one-thread solver: under callgrind (which runs one thread at a time)
+// its instruction counts are those of the steps alone, where a side-by-side solver would step on
+// while it waits for the other.
 #include <omp.h>
 
 #include <algorithm>
@@ -156,11 +159,17 @@ double sideBySideRate(const Scene& scene, int steps) {
 // speed-up is the median of the ratios of each pair. The ceiling, two one-thread solvers side by
 // side over the one-thread rate, is measured just before each pair.
 template <int D, class T>
-void measure(const std::string& label, const Json& j, int steps, int reps) {
+void measure(const std::string& label, const Json& j, int steps, int reps, bool one_thread_only) {
   const Scene scene = parseScene(j, "bench");
   std::vector<Vec<D>> one_thread, two_threads;
   std::vector<double> rate1, rate2, ratio, ceiling;
   long binnings = 0;
+  if (one_thread_only) {
+    for (int r = 0; r < reps; ++r) rate1.push_back(run<D, T>(scene, 1, steps, one_thread));
+    std::printf("%s: %zu particles, 1 thread %.2f M particle-steps/s\n", label.c_str(),
+                one_thread.size(), median(rate1) / 1e6);
+    return;
+  }
   for (int r = 0; r < reps; ++r) {
     const double side_by_side = sideBySideRate<D, T>(scene, steps);
     rate1.push_back(run<D, T>(scene, 1, steps, one_thread, nullptr, &binnings));
@@ -220,24 +229,29 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::string precision = "both";
-  bool profiled = false;
+  bool profiled = false, one_thread_only = false;
   for (int arg = 4; arg < argc; ++arg) {
     const std::string word = argv[arg];
     if (word == "profile") {
       profiled = true;
+    } else if (word == "one-thread") {
+      one_thread_only = true;
     } else if (word == "double" || word == "float" || word == "both") {
       precision = word;
     } else {
-      std::fprintf(stderr, "mpm_bench: '%s' is none of double, float, both, profile\n", argv[arg]);
+      std::fprintf(stderr, "mpm_bench: '%s' is none of double, float, both, profile, one-thread\n",
+                   argv[arg]);
       return 2;
     }
   }
-  if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
-    std::printf("core-to-core round trip %.0f ns\n", round_trip);
-  else
-    std::printf("core-to-core round trip not measured: two threads did not run at once\n");
+  if (!one_thread_only) {
+    if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
+      std::printf("core-to-core round trip %.0f ns\n", round_trip);
+    else
+      std::printf("core-to-core round trip not measured: two threads did not run at once\n");
+  }
   const auto benchIn = [&]<int D, class T>(const std::string& label, const Json& scene) {
-    measure<D, T>(label, scene, steps, reps);
+    measure<D, T>(label, scene, steps, reps, one_thread_only);
     if (profiled) profile<D, T>(label, scene, steps, reps);
   };
   const auto bench = [&]<int D>(const std::string& label, const Json& scene) {

@@ -67,88 +67,168 @@ inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T
   visitStencilFlattened(grid, s, x, std::forward<F>(f));
 }
 
+// Four scalars in one value (GCC's vector extension), loaded from and stored to any scalar array:
+// the compiler keeps one in a single vector register where the target has registers that wide,
+// else in two. Lane-wise arithmetic rounds as scalar arithmetic does (no contraction across
+// lanes), so a loop on them gives the same result on every target.
+template <class T>
+struct Lanes4;
+template <>
+struct Lanes4<double> {
+  typedef double type __attribute__((vector_size(32), aligned(8), may_alias));
+};
+template <>
+struct Lanes4<float> {
+  typedef float type __attribute__((vector_size(16), aligned(4), may_alias));
+};
+
+// Whether the processor runs AVX2, where the solvers call the transfers compiled for it (the
+// four-lane loops of TensorStencil in one register each). Found at the first call; tests set it to
+// compare both builds of the transfers.
+inline bool& wideVectors() {
+  static bool wide = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return wide;
+}
+
 // Tensor-product transfers for APIC and MLS-MPM. A weight is a product over axes,
 // w_ip = prod_a N(o_a), and x_i - x_p has one component per axis, so the sums over the stencil
-// factor axis by axis: a scatter builds v + A (x_i - x_p) = v + sum_a A.col(a) dx_a(o_a) one axis
-// at a time, and a gather sums a row of the innermost axis before weighting it by the outer axes.
-// Per node this costs a few additions where the node-by-node visit above costs a D x D
-// matrix-vector product.
+// factor axis by axis. The stencil is walked as rows: the nodes of a row lie next to each other
+// along axis 0, the grid's contiguous axis, so a row of a vector field is consecutive scalars,
+// which the loops below take four at a time. A row is taken as four nodes (a quadratic stencil's
+// fourth node gets weight 0: it is read but takes no part in a sum, and receives zeros); it
+// stays inside the grid, whose ghost layer reaches past a particle on the far wall.
 template <int D, class Kernel, class T = Real>
 class TensorStencil {
  public:
   static constexpr int S = Kernel::support;
+  static constexpr int rows = D == 2 ? S : S * S;  // rows of nodes along axis 0
+  static constexpr int row_nodes = 4;              // S, padded
+  static constexpr int row_values = row_nodes * D;
+  static constexpr int chunks = row_values / 4;
   using V = Vec<D, T>;
   using M = Mat<D, T>;
+  using Lanes = typename Lanes4<T>::type;
+  static_assert(S <= row_nodes && sizeof(V) == D * sizeof(T),
+                "a row's nodes must lie back to back");
 
-  TensorStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s, const V& x)
-      : s_(s), base_(grid.index(s.base)) {
-    for (int a = 0; a < D; ++a) {
-      stride_[a] = grid.stride[a];
-      for (int o = 0; o < S; ++o) dx_[a][o] = T(s.base[a] + o) * T(grid.h) - x[a];
-    }
-  }
-
-  // Calls scatter(node_index, w_ip, v + A (x_i - x_p)) for every node of the stencil.
-  template <class Scatter>
-  void scatterAffine(const V& v, const M& A, Scatter&& scatter) const {
-    V term[D][S];  // A.col(a) dx_a(o)
+  TensorStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s, const V& x) : s_(s) {
+#pragma GCC unroll 16
     for (int a = 0; a < D; ++a)
-      for (int o = 0; o < S; ++o) term[a][o] = A.col(a) * dx_[a][o];
-    scatterAxis<D - 1>(base_, T(1), v, term, scatter);
-  }
-
-  // Returns sum_i w_ip v_i and sets moment = sum_i w_ip v_i (x_i - x_p)^T (APIC's B_p, Jiang et
-  // al. 2015, eq. 10), v_i = field[i].
-  V gatherAffine(const V* field, M& moment) const {
-    V sum;
-    gatherAxis<D - 1>(base_, field, sum, moment);
-    return sum;
-  }
-
- private:
-  template <int a, class Scatter>
-  void scatterAxis(int index, T w, const V& value, const V (&term)[D][S], Scatter& scatter) const {
-#pragma GCC unroll 4
-    for (int o = 0; o < S; ++o) {
-      const int k = index + o * stride_[a];
-      const T wo = w * s_.w[a][o];
-      const V vo = value + term[a][o];
-      if constexpr (a == 0)
-        scatter(k, wo, vo);
-      else
-        scatterAxis<a - 1>(k, wo, vo, term, scatter);
-    }
-  }
-
-  // sum = sum_o w_a(o) (the sum of the axes below), moment's first a + 1 columns likewise, column a
-  // taking the factor dx_a(o).
-  template <int a>
-  void gatherAxis(int index, const V* field, V& sum, M& moment) const {
-    sum.setZero();
-    moment.setZero();
-#pragma GCC unroll 4
-    for (int o = 0; o < S; ++o) {
-      const int k = index + o * stride_[a];
-      const T w = s_.w[a][o];
-      if constexpr (a == 0) {
-        const V& v = field[k];
-        sum += w * v;
-        moment.col(0) += (w * dx_[0][o]) * v;
-      } else {
-        V inner_sum;
-        M inner_moment;
-        gatherAxis<a - 1>(k, field, inner_sum, inner_moment);
-        sum += w * inner_sum;
-        moment.template leftCols<a>() += w * inner_moment.template leftCols<a>();
-        moment.col(a) += (w * dx_[a][o]) * inner_sum;
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) dx_[a][o] = T(s.base[a] + o) * T(grid.h) - x[a];
+    const int base = grid.index(s.base);
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const int o1 = r % S, o2 = r / S;
+      row_index_[r] = base + o1 * grid.stride[1];
+      row_weight_[r] = s.w[1][o1];
+      if constexpr (D == 3) {
+        row_index_[r] += o2 * grid.stride[2];
+        row_weight_[r] *= s.w[2][o2];
       }
     }
   }
 
+  // Adds w_ip m to mass[i] and w_ip (v + A (x_i - x_p)) to momentum[i] for every node i of the
+  // stencil.
+  [[gnu::always_inline]] void scatterAffine(T m, const V& v, const M& A, T* mass,
+                                            V* momentum) const {
+    // The value node o of row (o1, o2) takes is w_0(o) (v + A.col(0) dx_0(o)) plus w_0(o) times
+    // A.col(1) dx_1(o1) and A.col(2) dx_2(o2): a row's values are along1[o1] + along2[o2].
+    T inner_mass[row_nodes] = {}, along[D - 1][S][row_values] = {};
+#pragma GCC unroll 16
+    for (int o = 0; o < S; ++o) {
+      const T w0 = s_.w[0][o];
+      inner_mass[o] = w0 * m;
+#pragma GCC unroll 16
+      for (int c = 0; c < D; ++c) {
+#pragma GCC unroll 16
+        for (int o1 = 0; o1 < S; ++o1)
+          along[0][o1][o * D + c] = w0 * (v[c] + A(c, 0) * dx_[0][o] + A(c, 1) * dx_[1][o1]);
+        if constexpr (D == 3)
+#pragma GCC unroll 16
+          for (int o2 = 0; o2 < S; ++o2) along[1][o2][o * D + c] = w0 * (A(c, 2) * dx_[2][o2]);
+      }
+    }
+    // The grid is read and written a scalar at a time: the next particle's rows start a node or
+    // two from this one's, and a load that straddles two earlier vector stores waits for both to
+    // reach the cache, where one the width of the store it reads takes the value on the way.
+    const Lanes lanes_mass = load(inner_mass);
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T w = row_weight_[r];
+      const Lanes row_mass = w * lanes_mass;
+      T* grid_mass = mass + row_index_[r];
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) grid_mass[o] += row_mass[o];
+      T* row = momentum[row_index_[r]].data();
+#pragma GCC unroll 16
+      for (int j = 0; j < chunks; ++j) {
+        Lanes value = load(along[0][r % S] + 4 * j);
+        if constexpr (D == 3) value += load(along[1][r / S] + 4 * j);
+        value *= w;
+#pragma GCC unroll 16
+        for (int i = 0; i < 4; ++i)
+          if (4 * j + i < S * D) row[4 * j + i] += value[i];
+      }
+    }
+  }
+
+  // Returns sum_i w_ip v_i and sets moment = sum_i w_ip v_i (x_i - x_p)^T (APIC's B_p, Jiang et
+  // al. 2015, eq. 10), v_i = field[i].
+  [[gnu::always_inline]] V gatherAffine(const V* field, M& moment) const {
+    // Across the rows first, node by node of a row: the sums weighted by the rows' weights, and
+    // by those times dx_a for each outer axis a; then along the row.
+    Lanes across[D][chunks] = {};  // [0]: sum_r w_r v; [a]: sum_r w_r dx_a v
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T* row = field[row_index_[r]].data();
+      const T w = row_weight_[r];
+      const T w1 = w * dx_[1][r % S], w2 = D == 3 ? w * dx_[D - 1][r / S] : T(0);
+#pragma GCC unroll 16
+      for (int j = 0; j < chunks; ++j) {
+        const Lanes values = load(row + 4 * j);
+        across[0][j] += w * values;
+        across[1][j] += w1 * values;
+        if constexpr (D == 3) across[2][j] += w2 * values;
+      }
+    }
+    T sums[D][row_values];
+#pragma GCC unroll 16
+    for (int a = 0; a < D; ++a)
+#pragma GCC unroll 16
+      for (int j = 0; j < chunks; ++j) store(sums[a] + 4 * j, across[a][j]);
+    V sum = V::Zero();
+    moment.setZero();
+#pragma GCC unroll 16
+    for (int o = 0; o < S; ++o) {
+      const T w0 = s_.w[0][o], w0dx = w0 * dx_[0][o];
+#pragma GCC unroll 16
+      for (int c = 0; c < D; ++c) {
+        sum[c] += w0 * sums[0][o * D + c];
+        moment(c, 0) += w0dx * sums[0][o * D + c];
+#pragma GCC unroll 16
+        for (int a = 1; a < D; ++a) moment(c, a) += w0 * sums[a][o * D + c];
+      }
+    }
+    return sum;
+  }
+
+ private:
+  static const Lanes& load(const T* p) {
+    return *reinterpret_cast<const Lanes*>(p);
+  }
+  static void store(T* p, const Lanes& l) {
+    *reinterpret_cast<Lanes*>(p) = l;
+  }
+
   const Stencil<D, Kernel, T>& s_;
-  int base_;
-  int stride_[D];
-  T dx_[D][S];  // x_i - x_p along each axis
+  T dx_[D][S];           // x_i - x_p along each axis
+  int row_index_[rows];  // flat index of each row's first node
+  T row_weight_[rows];   // prod_{a>0} w_a(o_a) of each row
 };
 
 // Calls f(node_index, weight, weight_gradient) for every node of the particle's stencil.

@@ -66,6 +66,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
+  placeScreens();
   colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
   scatter(0);
@@ -85,6 +86,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
 template <int D, class T>
 void MpmSolver<D, T>::advance(Real dt) {
   placeColliders(colliders_, this->time());
+  placeScreens();
   const Real stable_dt = semiImplicit() ? advectionTimeStep() : cflTimeStep();
   if (dt > stable_dt && step_when_exceeded_ < 0) {
     limit_when_exceeded_ = stable_dt;
@@ -101,12 +103,18 @@ template <int D, class T>
 template <class Transfer, class Kernel>
 void MpmSolver<D, T>::stepWith(T dt) {
   const bool semi_implicit = semiImplicit();
+  const bool wide = wideVectors();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
   // stages each meet on their own; the explicit stages share the team's threads, but for the
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !slabs_.distributed(), [&] {
     // 1, 3: mass, momentum and forces to the grid.
-    schedule_.scatter([&](int p, PartialGrid& g) { scatterParticle<Transfer, Kernel>(p, g, dt); });
+    schedule_.scatter([&](int p, PartialGrid& g) {
+      if (wide)
+        scatterParticleWide<Transfer, Kernel>(p, g, dt);
+      else
+        scatterParticle<Transfer, Kernel>(p, g, dt);
+    });
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     const auto updateNode = [&](int k) {
       velocityFromMomentum<Transfer>(k);
@@ -124,18 +132,27 @@ void MpmSolver<D, T>::stepWith(T dt) {
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
     schedule_.passOverParticles(
         "move particles", particles_.x, part_measures_,
-        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt); });
+        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, wide); });
   });
 }
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt) {
-  gatherVelocity<Transfer, Kernel>(p);  // 8 (gathered first: 7 needs grad v)
-  updateDeformation<Transfer>(p, dt);   // 7
-  collideParticle(p);                   // 9
-  advect(p, dt);                        // 10
+Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
+  if (wide)  // 8 (gathered first: 7 needs grad v)
+    gatherVelocityWide<Transfer, Kernel>(p);
+  else
+    gatherVelocity<Transfer, Kernel>(p);
+  updateDeformation<Transfer>(p, dt);  // 7
+  collideParticle(p);                  // 9
+  advect(p, dt);                       // 10
   return measure(p, m);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+SNOWSIM_FLATTEN void MpmSolver<D, T>::scatterParticleWide(int p, PartialGrid& g, T dt) const {
+  scatterParticle<Transfer, Kernel>(p, g, dt);
 }
 
 template <int D, class T>
@@ -158,10 +175,7 @@ void MpmSolver<D, T>::scatterParticle(int p, PartialGrid& g, T dt) const {
     // of eq. 1 with the affine part of APIC and the force of eq. 8 in one scatter.
     const M A = m * particles_.C[p] + (dt * inertia_inverse_) * stress;
     TensorStencil<D, Kernel, T>(grid_, s, x)
-        .scatterAffine(mv, A, [&](int k, T w, const V& momentum) {
-          g.mass[k] += w * m;
-          g.momentum[k] += w * momentum;
-        });
+        .scatterAffine(m, mv, A, g.mass.data(), g.momentum.data());
   } else {
     const M mC = m * particles_.C[p];
     visitStencil(grid_, s, x, [&](const StencilVisit<D, T>& node) {
@@ -229,14 +243,32 @@ void MpmSolver<D, T>::accelerate(int k, T dt) {
 }
 
 template <int D, class T>
+void MpmSolver<D, T>::placeScreens() {
+  screens_.resize(colliders_.size());
+  // Relative round-off of phi is about 1e-16 of the coordinates' size: 1e-9 leaves room.
+  const Real margin = 1e-9 * (1 + grid_.extent().norm());
+  for (size_t c = 0; c < colliders_.size(); ++c) {
+    const Collider<D>& collider = colliders_[c];
+    ColliderScreen& screen = screens_[c];
+    screen.half_space = collider.shape == ColliderShape::HalfSpace;
+    screen.normal = collider.rotation * collider.normal;
+    screen.offset = screen.normal.dot(collider.position);
+    screen.margin = margin * (1 + collider.position.norm());
+  }
+}
+
+template <int D, class T>
 void MpmSolver<D, T>::collideNode(int k) {
   if (fields_.mass[k] <= 0) return;
   const Vec<D> x = grid_.position(grid_.coords(k));
+  const int colliders = static_cast<int>(colliders_.size());
   if constexpr (double_precision) {
-    for (const Collider<D>& c : colliders_) c.collide(x, fields_.velocity[k]);
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, x)) colliders_[c].collide(x, fields_.velocity[k]);
   } else {  // the colliders work in double
     Vec<D> v = fields_.velocity[k].template cast<Real>();
-    for (const Collider<D>& c : colliders_) c.collide(x, v);
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, x)) colliders_[c].collide(x, v);
     fields_.velocity[k] = v.template cast<T>();
   }
 }
@@ -265,6 +297,12 @@ void MpmSolver<D, T>::solveImplicitVelocities(Real dt) {
       throw SimulationError(s.str());
     }
   }
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+SNOWSIM_FLATTEN void MpmSolver<D, T>::gatherVelocityWide(int p) {
+  gatherVelocity<Transfer, Kernel>(p);
 }
 
 template <int D, class T>
@@ -315,13 +353,20 @@ void MpmSolver<D, T>::updateDeformation(int p, T dt) {
 
 template <int D, class T>
 void MpmSolver<D, T>::collideParticle(int p) {
+  const int colliders = static_cast<int>(colliders_.size());
   if constexpr (double_precision) {
-    for (const Collider<D>& c : colliders_) c.collide(particles_.x[p], particles_.v[p]);
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, particles_.x[p])) colliders_[c].collide(particles_.x[p], particles_.v[p]);
   } else {  // the colliders work in double
     const Vec<D> x = particles_.x[p].template cast<Real>();
     Vec<D> v = particles_.v[p].template cast<Real>();
-    for (const Collider<D>& c : colliders_) c.collide(x, v);
-    particles_.v[p] = v.template cast<T>();
+    bool touched = false;
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, x)) {
+        colliders_[c].collide(x, v);
+        touched = true;
+      }
+    if (touched) particles_.v[p] = v.template cast<T>();
   }
 }
 
@@ -329,12 +374,19 @@ template <int D, class T>
 void MpmSolver<D, T>::advect(int p, T dt) {
   V& x = particles_.x[p];
   x += dt * particles_.v[p];
+  const int colliders = static_cast<int>(colliders_.size());
   if constexpr (double_precision) {
-    for (const Collider<D>& c : colliders_) c.pushOut(x);
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, x)) colliders_[c].pushOut(x);
   } else {
     Vec<D> x_double = x.template cast<Real>();
-    for (const Collider<D>& c : colliders_) c.pushOut(x_double);
-    x = x_double.template cast<T>();
+    bool touched = false;
+    for (int c = 0; c < colliders; ++c)
+      if (mayTouch(c, x_double)) {
+        colliders_[c].pushOut(x_double);
+        touched = true;
+      }
+    if (touched) x = x_double.template cast<T>();
   }
   x = x.cwiseMax(V::Zero()).cwiseMin(grid_.extent().template cast<T>());  // never leave the domain
 }
@@ -412,9 +464,10 @@ template <int D, class T>
 void MpmSolver<D, T>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    schedule_.passOverParticles(
-        "move particles", particles_.x, part_measures_,
-        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt); });
+    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
+                                [&](int p, PartMeasure& m) {
+                                  return moveParticle<Transfer, Kernel>(p, m, dt, wideVectors());
+                                });
   });
   collectMeasures();
 }

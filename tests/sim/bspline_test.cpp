@@ -108,8 +108,9 @@ TEST(BSpline, StencilPartitionOfUnity3DCubic) {
 }
 
 // The tensor-product scatter and gather (TensorStencil) against the node-by-node definitions:
-// scatter gives each node w_ip and v + A (x_i - x_p); gather gives sum_i w_ip v_i and
-// sum_i w_ip v_i (x_i - x_p)^T, for a random grid field.
+// scatter adds w_ip m to each node's mass and w_ip (v + A (x_i - x_p)) to its momentum, and to no
+// other node; gather gives sum_i w_ip v_i and sum_i w_ip v_i (x_i - x_p)^T, for a random grid
+// field.
 template <int D, class Kernel>
 void checkTensorStencil() {
   std::mt19937 rng(13);
@@ -127,30 +128,31 @@ void checkTensorStencil() {
       v[a] = value(rng);
       for (int b = 0; b < D; ++b) A(a, b) = value(rng);
     }
+    const Real m = 1 + value(rng);
     const Stencil<D, Kernel> s(x, 1 / h);
     const TensorStencil<D, Kernel> tensor(grid, s, x);
 
-    std::vector<int> scattered_index;
-    std::vector<Real> scattered_weight;
-    std::vector<Vec<D>> scattered_value;
-    tensor.scatterAffine(v, A, [&](int k, Real w, const Vec<D>& value_i) {
-      scattered_index.push_back(k);
-      scattered_weight.push_back(w);
-      scattered_value.push_back(value_i);
-    });
-    ASSERT_EQ(static_cast<int>(scattered_index.size()), s.nodes);
+    std::vector<Real> mass(grid.nodeCount(), 0);
+    std::vector<Vec<D>> momentum(grid.nodeCount(), Vec<D>::Zero());
+    tensor.scatterAffine(m, v, A, mass.data(), momentum.data());
 
     Vec<D> sum = Vec<D>::Zero();
     Mat<D> moment = Mat<D>::Zero();
     int n = 0;
     for (const StencilVisit<D>& node : visitedNodes(grid, s, x)) {
       const Real w = s.weightAt(node.offset);
-      EXPECT_EQ(scattered_index[n], node.index);
-      EXPECT_NEAR(scattered_weight[n], w, 1e-15);
-      EXPECT_LT((scattered_value[n] - (v + A * node.dx)).norm(), 1e-14);
+      EXPECT_NEAR(mass[node.index], w * m, 1e-15);
+      EXPECT_LT((momentum[node.index] - w * (v + A * node.dx)).norm(), 1e-14);
+      mass[node.index] = 0;
+      momentum[node.index].setZero();
       sum += w * field[node.index];
       moment += w * field[node.index] * node.dx.transpose();
       ++n;
+    }
+    EXPECT_EQ(n, s.nodes);
+    for (int k = 0; k < grid.nodeCount(); ++k) {  // no node outside the stencil written
+      ASSERT_EQ(mass[k], 0);
+      ASSERT_EQ(momentum[k], Vec<D>::Zero());
     }
     Mat<D> gathered_moment;
     const Vec<D> gathered_sum = tensor.gatherAffine(field.data(), gathered_moment);

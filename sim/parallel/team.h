@@ -34,11 +34,12 @@ class Signal {
   void store(unsigned value) { value_.store(value, std::memory_order_release); }
   void add(unsigned n) { value_.fetch_add(n, std::memory_order_release); }
 
-  // Wakes those asleep in awaitChange. The fence orders the change before the check for
-  // sleepers, as awaitChange orders its count of sleepers before its check of the value.
+  // Wakes those asleep in awaitChange. The check for sleepers is a read-modify-write, not a
+  // load: of it and awaitChange's count, the later reads from the earlier, which then
+  // happens-before it. So either this sees the sleeper or the sleeper sees the change. (Fences
+  // would do the same, but ThreadSanitizer does not model fences.)
   void wake() {
-    std::atomic_thread_fence(std::memory_order_seq_cst);
-    if (sleepers_.load(std::memory_order_relaxed) > 0) value_.notify_all();
+    if (sleepers_.fetch_add(0, std::memory_order_acq_rel) > 0) value_.notify_all();
   }
 
   // Returns once the value is no longer `old`.
@@ -48,8 +49,7 @@ class Signal {
       if (load() != old) return;
       pause();
     }
-    sleepers_.fetch_add(1, std::memory_order_seq_cst);
-    std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with wake()'s
+    sleepers_.fetch_add(1, std::memory_order_acq_rel);  // pairs with wake()'s
     while (load() == old) value_.wait(old, std::memory_order_acquire);
     sleepers_.fetch_sub(1, std::memory_order_relaxed);
   }

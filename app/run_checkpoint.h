@@ -17,6 +17,9 @@ namespace snowsim {
 // DIR/checkpoint.snowsim; the one before it stays as checkpoint.snowsim.prev.
 std::string checkpointPath(const std::string& dir);
 
+// Wall time between checkpoints when neither the scene nor the command line says.
+constexpr double kDefaultCheckpointMinutes = 5;
+
 // When a run writes a checkpoint at a frame boundary: every `every_frames` frames (0: not by
 // count) and once `minutes` of wall time have passed since the last one (0: not by time).
 class CheckpointCadence {

@@ -53,8 +53,10 @@ struct RunOptions {
   bool z_up = false;       // --z-up: PLY and VDB turned to z up, (x, y, z) -> (x, -z, y)
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
-  int checkpoint_every = 0;       // frames between checkpoints; 0: by wall time only
-  double checkpoint_minutes = 5;  // wall time between checkpoints; 0: by frames only
+  // When to checkpoint, over the scene's output object: frames between checkpoints (0: not by
+  // count) and wall time between them (0: not by time).
+  std::optional<int> checkpoint_every;
+  std::optional<double> checkpoint_minutes;
   std::vector<std::string> args;  // the command line after `run`, which resume parses again
 };
 
@@ -233,7 +235,10 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   progress.note(estimate.before());
   int written = first_frame;
   // The run's own state beside the solver's; next_frame: the first frame not yet written.
-  CheckpointCadence cadence(options.checkpoint_every, options.checkpoint_minutes);
+  CheckpointCadence cadence(
+      options.checkpoint_every.value_or(scene.output.checkpoint_every_frames.value_or(0)),
+      options.checkpoint_minutes.value_or(
+          scene.output.checkpoint_minutes.value_or(kDefaultCheckpointMinutes)));
   const auto checkpoint = [&](int next_frame) {
     const StageClock::Scope time(&clock, "checkpoint");
     nlohmann::json state = {
@@ -379,13 +384,14 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
   options->render.addTo(*cmd);
   cmd->add_option("--checkpoint-every", options->checkpoint_every,
                   "Write a checkpoint (checkpoint.snowsim) every N frames, besides every "
-                  "--checkpoint-minutes; `snowsim resume` continues from it")
+                  "--checkpoint-minutes; `snowsim resume` continues from it (default: the "
+                  "scene's output.checkpoint_every_frames, else 0: not by count)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--checkpoint-minutes", options->checkpoint_minutes,
                   "Write a checkpoint at the first frame after this much wall time (0: only "
-                  "every --checkpoint-every frames and when stopped by a signal)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
+                  "every --checkpoint-every frames and when stopped by a signal; default: the "
+                  "scene's output.checkpoint_minutes, else 5)")
+      ->check(CLI::NonNegativeNumber);
 }
 
 // snowsim resume DIR: the run in DIR continued from its checkpoint with its own command line.

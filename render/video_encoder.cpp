@@ -11,6 +11,7 @@ extern "C" {
 }
 
 #include "sim/core/errors.h"
+#include "sim/io/files.h"
 
 namespace snowsim {
 
@@ -195,6 +196,7 @@ void VideoEncoder::finish() {
   s.encode(nullptr);
   s.check(av_write_trailer(s.format), "writing the MP4 trailer");
   avio_closep(&s.format->pb);
+  syncFile(s.temp_path, s.path);
   std::error_code error;
   std::filesystem::rename(s.temp_path, s.path, error);
   if (error) throw InputError(s.path + ": cannot rename the finished video: " + error.message());

@@ -62,6 +62,9 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
     if (written < 0 && errno != EINTR) error = errno;
     if (written > 0) data += written, left -= static_cast<size_t>(written);
   }
+  // Synced before the rename, so that a crash cannot leave an empty frame under the final name
+  // that a later checkpoint counts as written (the checkpoint syncs the directory).
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
   if (::close(fd) != 0 && error == 0) error = errno;
   if (error != 0) {
     std::filesystem::remove(temporary);
@@ -73,6 +76,13 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
     std::filesystem::remove(temporary);
     throw InputError(path + ": cannot write (" + ec.message() + ")");
   }
+}
+
+void syncFile(const std::string& written, const std::string& path) {
+  const int fd = ::open(written.c_str(), O_RDONLY | O_CLOEXEC);
+  int error = fd < 0 || ::fsync(fd) != 0 ? errno : 0;
+  if (fd >= 0) ::close(fd);
+  if (error != 0) throw InputError(path + ": writing failed (" + std::strerror(error) + ")");
 }
 
 void prepareOutputDirectory(const std::string& dir) {

@@ -8,6 +8,10 @@ namespace snowsim {
 // Writes bytes to path.tmp and renames it over path. Throws InputError naming the path.
 void writeFileAtomically(const std::string& path, const std::string& bytes);
 
+// Syncs a file written by other means (a library's writer) to disk before it is renamed over
+// `path`, as writeFileAtomically does. Throws InputError naming `path`.
+void syncFile(const std::string& written, const std::string& path);
+
 // A file being written, as long as this lives: removeUnfinishedFiles() removes it. For the
 // temporaries of atomic writes and a video's .part, which a stop at once must not leave behind.
 class UnfinishedFile {

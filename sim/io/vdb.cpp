@@ -85,6 +85,12 @@ void writeVdb(const std::string& path, const Snapshot& s, UpAxis up) {
     std::filesystem::remove(temporary);
     throw InputError(path + ": cannot write (" + e.what() + ")");
   }
+  try {
+    syncFile(temporary, path);
+  } catch (const InputError&) {
+    std::filesystem::remove(temporary);
+    throw;
+  }
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);
   if (ec) {

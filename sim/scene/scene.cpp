@@ -488,6 +488,18 @@ SceneRender parseRender(const Json* j, const std::string& file) {
   return r;
 }
 
+SceneOutput parseOutput(const Json* j, const std::string& file) {
+  SceneOutput o;
+  if (!j) return o;
+  JsonFields f(*j, "output", file);
+  if (f.given("checkpoint_minutes"))
+    o.checkpoint_minutes = f.number("checkpoint_minutes", std::nullopt, 0, 1e6);
+  if (f.given("checkpoint_every_frames"))
+    o.checkpoint_every_frames = f.integer("checkpoint_every_frames", std::nullopt, 0, 1000000);
+  f.finish();
+  return o;
+}
+
 }  // namespace
 
 Scene parseScene(const Json& root, const std::string& file) {
@@ -548,6 +560,7 @@ Scene parseScene(const Json& root, const std::string& file) {
     s.bodies.push_back(parseBody((*bodies)[i], static_cast<int>(i), s, f));
 
   s.render = parseRender(f.object("render", false), file);
+  s.output = parseOutput(f.object("output", false), file);
   f.finish();
   return s;
 }

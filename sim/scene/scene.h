@@ -165,6 +165,13 @@ struct SceneRender {
   std::optional<bool> occlusion;                     // 3D: ambient occlusion between spheres
 };
 
+// The scene's `output` object: when `snowsim run` writes checkpoints (docs/checkpoints.md). A
+// field left out takes the run's default; the command-line options override both.
+struct SceneOutput {
+  std::optional<double> checkpoint_minutes;    // wall time between checkpoints; 0: not by time
+  std::optional<int> checkpoint_every_frames;  // frames between checkpoints; 0: not by count
+};
+
 struct Scene {
   std::string file;  // where it was read from, for messages
   std::string name;
@@ -190,6 +197,7 @@ struct Scene {
   int seed = 1;
   std::vector<Body> bodies;
   SceneRender render;
+  SceneOutput output;
 
   Vec3 extent() const;
   int frameCount() const;  // frames after the initial one

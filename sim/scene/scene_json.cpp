@@ -154,6 +154,13 @@ Json renderJson(const SceneRender& r) {
   return j;
 }
 
+Json outputJson(const SceneOutput& o) {
+  Json j = Json::object();
+  if (o.checkpoint_minutes) j["checkpoint_minutes"] = *o.checkpoint_minutes;
+  if (o.checkpoint_every_frames) j["checkpoint_every_frames"] = *o.checkpoint_every_frames;
+  return j;
+}
+
 }  // namespace
 
 Json sceneToJson(const Scene& s) {
@@ -183,7 +190,8 @@ Json sceneToJson(const Scene& s) {
             {"seeding", seedingName(s.seeding)},
             {"seed", s.seed},
             {"bodies", Json::array()},
-            {"render", renderJson(s.render)}};
+            {"render", renderJson(s.render)},
+            {"output", outputJson(s.output)}};
   for (const ColliderParams& c : s.colliders) j["colliders"].push_back(colliderJson(c, d));
   for (const Body& b : s.bodies) j["bodies"].push_back(bodyJson(b, d));
   return j;

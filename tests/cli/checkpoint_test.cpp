@@ -128,6 +128,37 @@ TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
   }
 }
 
+// The scene's output object sets the cadence; the command line overrides it. Killed with
+// SIGKILL after some frames, a run checkpointing every frame by its scene has a checkpoint to
+// resume from, one told otherwise by --checkpoint-every 0 --checkpoint-minutes 0 has none.
+TEST(Checkpoint, TheSceneSetsTheCadenceAndTheCommandLineOverridesIt) {
+  const auto killedAfterFrame3 = [](const std::string& name, std::vector<std::string> extra) {
+    const fs::path out = freshDir(name);
+    std::vector<std::string> args = runArgs(kCases[0], out, 1);
+    args.resize(args.size() - kCases[0].settings.size() - 2);  // without --checkpoint-every 1
+    args.insert(args.end(), kCases[0].settings.begin(), kCases[0].settings.end());
+    args.insert(args.end(), {"--set", "output.checkpoint_every_frames=1"});
+    args.insert(args.end(), extra.begin(), extra.end());
+    const pid_t child = startSnowsim(args);
+    EXPECT_TRUE(waitFor(out / frameName(3, "png")));
+    finish(child, SIGKILL);
+    return out;
+  };
+  const fs::path by_scene = killedAfterFrame3("cadence_scene", {});
+  EXPECT_TRUE(fs::exists(by_scene / "checkpoint.snowsim"));
+  const fs::path overridden = killedAfterFrame3(
+      "cadence_overridden", {"--checkpoint-every", "0", "--checkpoint-minutes", "0"});
+  EXPECT_TRUE(fs::exists(overridden / frameName(3, "png")));
+  EXPECT_FALSE(fs::exists(overridden / "checkpoint.snowsim"));
+
+  const auto refused =
+      runSnowsim("run " + sceneFile("snowball_drop") + " -o " + freshDir("cadence_bad").string() +
+                 " --set output.checkpoint_minutes=-2");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("output.checkpoint_minutes: -2 is out of range"), std::string::npos)
+      << refused.output;
+}
+
 // SIGTERM stops mid-frame at the end of a step; the checkpoint holds that state, and resume lands
 // on the same steps (the last one shortened to the frame's time as before).
 TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {

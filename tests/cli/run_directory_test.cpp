@@ -135,7 +135,8 @@ TEST(RunDirectory, AFullDiskMidRunNamesTheFileAndKeepsEarlierFrames) {
     fs::create_directories(out);
     fs::create_symlink("/dev/full", out / (failing + ".tmp"));
     const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
-                                " --set time.duration=0.2 --width 64 --height 64 --no-mp4");
+                                " --set time.duration=0.2 --width 64 --height 64 --no-mp4 "
+                                "--checkpoint-every 1");
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(
         r.output.find((out / failing).string() + ": writing failed (No space left on device)"),
@@ -149,6 +150,13 @@ TEST(RunDirectory, AFullDiskMidRunNamesTheFileAndKeepsEarlierFrames) {
       EXPECT_EQ(snowsim::readPly((out / (std::string(name) + ".ply")).string()).size(), 25);
       EXPECT_EQ(snowsim::readPng((out / (std::string(name) + ".png")).string()).width, 64);
     }
+    // The last checkpoint, after frame 2, is intact: with room again, resume finishes the run.
+    fs::remove(out / (failing + ".tmp"));
+    const Result resumed = runSnowsim("resume " + out.string());
+    EXPECT_EQ(resumed.code, 0) << resumed.output;
+    EXPECT_EQ(snowsim::readPly((out / "frame_00003.ply").string()).size(), 25);
+    EXPECT_EQ(snowsim::readPng((out / "frame_00003.png").string()).width, 64);
+    EXPECT_EQ(snowsim::readPly((out / "frame_00010.ply").string()).size(), 25);
   }
 }
 

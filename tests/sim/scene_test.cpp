@@ -226,6 +226,40 @@ TEST(Scene, RenderObjectIsParsedWithTheScene) {
             std::string::npos);
 }
 
+// The checkpoint cadence: optional, each field checked, the file and field named.
+TEST(Scene, OutputObjectSetsTheCheckpointCadence) {
+  EXPECT_FALSE(loadScene(writeTemp(kMinimal)).output.checkpoint_minutes.has_value());
+  std::string text = kMinimal;
+  text.insert(text.rfind('}'),
+              R"(, "output": {"checkpoint_minutes": 0.5, "checkpoint_every_frames": 10})");
+  const Scene s = loadScene(writeTemp(text));
+  EXPECT_EQ(s.output.checkpoint_minutes, 0.5);
+  EXPECT_EQ(s.output.checkpoint_every_frames, 10);
+
+  std::string negative = kMinimal;
+  negative.insert(negative.rfind('}'), R"(, "output": {"checkpoint_minutes": -1})");
+  const std::string path = writeTemp(negative);
+  std::string message;
+  try {
+    loadScene(path);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find(path + ": output.checkpoint_minutes: -1 is out of range; allowed: "),
+            std::string::npos)
+      << message;
+  EXPECT_NE(errorOf(kMinimal, {"output.checkpoint_every_frames=2.5"})
+                .find("output.checkpoint_every_frames: "),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"output.checkpoint_every_frames=-3"})
+                .find("output.checkpoint_every_frames: -3 is out of range; allowed: 0 to 1000000"),
+            std::string::npos);
+  EXPECT_NE(errorOf(kMinimal, {"output.checkpoint_minute=3"})
+                .find("output.checkpoint_minute: unknown field; did you mean "
+                      "\"checkpoint_minutes\"?"),
+            std::string::npos);
+}
+
 TEST(Scene, RenderLookBackgroundShadowsAndOcclusion) {
   const Scene s =
       loadScene(writeTemp(kMinimal), {"render.look=figure", "render.background=[1, 0.5, 0]",

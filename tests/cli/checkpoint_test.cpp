@@ -162,7 +162,8 @@ TEST(Checkpoint, TheSceneSetsTheCadenceAndTheCommandLineOverridesIt) {
 // SIGTERM stops mid-frame at the end of a step; the checkpoint holds that state, and resume lands
 // on the same steps (the last one shortened to the frame's time as before).
 TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
-  // Two seconds of snow a frame, some 9000 steps: a stop lands between frames.
+  // Twenty seconds of snow a frame, some 90,000 steps (about half a second): a stop lands between
+  // frames.
   const auto args = [](const fs::path& out, int threads) {
     return std::vector<std::string>{"run",
                                     sceneFile("mpm_reference"),
@@ -171,9 +172,9 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
                                     "--no-png",
                                     "--no-mp4",
                                     "--set",
-                                    "time.duration=4",
+                                    "time.duration=40",
                                     "--set",
-                                    "time.fps=0.5",
+                                    "time.fps=0.05",
                                     "--checkpoint-minutes",
                                     "0",
                                     "--threads",
@@ -189,7 +190,7 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before the signal";
   const auto stopped = nlohmann::json::parse(std::ifstream(out / "run.json"));
   const double stopped_at = stopped["simulated_time"].get<double>();
-  EXPECT_NE(stopped_at, 2 * std::round(stopped_at / 2)) << "stopped at a frame, not between";
+  EXPECT_NE(stopped_at, 20 * std::round(stopped_at / 20)) << "stopped at a frame, not between";
   const auto resumed = runSnowsim("resume " + out.string() + " --threads 1");
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));

@@ -2,6 +2,8 @@
 // chosen; errors are thrown (InputError: exit 2, SimulationError: exit 3).
 #pragma once
 
+#include <exception>
+
 #include <CLI/CLI.hpp>
 
 namespace snowsim {
@@ -13,5 +15,9 @@ void addFigureCommand(CLI::App& app);
 void addDiffCommand(CLI::App& app);
 void addStudyCommand(CLI::App& app);
 void addClumpsCommand(CLI::App& app);
+
+// Prints a command's error on stderr and returns its exit code: 2 bad input, 3 the simulation
+// failed, 4 anything else.
+int reportFailure(const std::exception& e);
 
 }  // namespace snowsim

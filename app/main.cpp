@@ -29,18 +29,28 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
-  } catch (const snowsim::InputError& e) {
-    std::fprintf(stderr, "snowsim: error: %s\n", e.what());
-    return 2;
   } catch (const snowsim::Interrupted& e) {
     std::fprintf(stderr, "snowsim: %s\n", e.what());
     return 128 + e.signal;
-  } catch (const snowsim::SimulationError& e) {
-    std::fprintf(stderr, "snowsim: simulation failed: %s\n", e.what());
-    return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "snowsim: internal error: %s\n", e.what());
-    return 4;
+    return snowsim::reportFailure(e);
   }
   return 0;
 }
+
+namespace snowsim {
+
+int reportFailure(const std::exception& e) {
+  if (dynamic_cast<const InputError*>(&e)) {
+    std::fprintf(stderr, "snowsim: error: %s\n", e.what());
+    return 2;
+  }
+  if (dynamic_cast<const SimulationError*>(&e)) {
+    std::fprintf(stderr, "snowsim: simulation failed: %s\n", e.what());
+    return 3;
+  }
+  std::fprintf(stderr, "snowsim: internal error: %s\n", e.what());
+  return 4;
+}
+
+}  // namespace snowsim

@@ -341,6 +341,21 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
 
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene
 // file no longer needed (the checkpoint holds the scene as run).
+// Across ranks, an error one rank meets alone (rank 0's full disk) would leave the others waiting
+// in their next exchange: it ends every rank, with the exit code of one process. A signal needs
+// none of this, as every rank stops at the same step.
+void runOnEveryRank(const RunOptions& options, const SavedRun* saved = nullptr) {
+  try {
+    run(options, saved);
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const std::exception& e) {
+    RankExchange& world = worldExchange();
+    if (world.ranks() == 1) throw;
+    world.abortAll(reportFailure(e));
+  }
+}
+
 void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
   CLI::Option* scene =
       cmd->add_option("scene", options->scene, "Scene file (JSON), e.g. scenes/snowball_drop.json")
@@ -413,7 +428,7 @@ void resume(const std::string& dir, int threads) {
   options.args = args;
   options.out = dir;
   if (threads > 0) options.threads = threads;
-  run(options, &saved);
+  runOnEveryRank(options, &saved);
 }
 
 }  // namespace
@@ -441,7 +456,7 @@ void addRunCommand(CLI::App& app) {
       "at once, leaving only complete files).");
   cmd->callback([options] {
     options->args = argumentsAfter("run");
-    run(*options);
+    runOnEveryRank(*options);
   });
 }
 

@@ -64,6 +64,10 @@ class MpiWorld final : public RankExchange {
     return from;
   }
 
+  [[noreturn]] void abortAll(int exit_code) override {
+    MPI_Abort(MPI_COMM_WORLD, exit_code);
+    std::exit(exit_code);  // MPI_Abort does not return; this says so to the compiler
+  }
   std::vector<std::string> allToAll(const std::vector<std::string>& to) override {
     std::vector<int> send_counts(ranks_), receive_counts(ranks_);
     for (int r = 0; r < ranks_; ++r) send_counts[r] = byteCount(to[r].size());

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <string_view>
@@ -23,6 +24,9 @@ class RankExchange {
   // Every rank calls it with to[r], the bytes for rank r; returns from[r], what rank r sent this
   // one.
   virtual std::vector<std::string> allToAll(const std::vector<std::string>& to) = 0;
+  // Ends every rank's process with this exit code: for an error one rank meets alone, which
+  // would leave the others waiting in their next exchange.
+  [[noreturn]] virtual void abortAll(int exit_code) = 0;
 
   // The largest of every rank's value, on every rank.
   long maxOverRanks(long value) {
@@ -44,6 +48,7 @@ class SingleProcess final : public RankExchange {
   int ranks() const override { return 1; }
   std::vector<std::string> allGather(std::string_view mine) override { return {std::string(mine)}; }
   std::vector<std::string> allToAll(const std::vector<std::string>& to) override { return to; }
+  [[noreturn]] void abortAll(int exit_code) override { std::exit(exit_code); }
 };
 
 // A world of one process, for what runs alone (studies, figures, tests) even under mpirun.

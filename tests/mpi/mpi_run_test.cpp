@@ -144,4 +144,19 @@ TEST(Mpi, RefusesWhatIsNotDistributed) {
   EXPECT_FALSE(fs::exists(out / "run.json"));
 }
 
+// A failure rank 0 meets alone (frame 2's PLY goes to /dev/full) ends every rank at once with the
+// exit code of one process, instead of leaving the others waiting in their next exchange; the
+// earlier frames stay complete.
+TEST(Mpi, AnErrorOfOneRankEndsEveryRank) {
+  const fs::path out = freshDir("mpi_full_disk");
+  fs::create_directories(out);
+  fs::create_symlink("/dev/full", out / "frame_00002.ply.tmp");
+  const auto run =
+      runCommand("timeout 120 " + mpirun(2) + " run " + kScene + " -o " + out.string() + kShort);
+  EXPECT_EQ(run.code, 2) << run.output;
+  EXPECT_NE(run.output.find("frame_00002.ply: writing failed"), std::string::npos) << run.output;
+  EXPECT_TRUE(fs::exists(out / "frame_00001.ply"));
+  EXPECT_FALSE(fs::exists(out / "frame_00002.ply"));
+}
+
 }  // namespace

@@ -9,6 +9,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -72,6 +73,17 @@ class JsonFields {
   // One of the allowed names.
   std::string choice(const std::string& key, const std::vector<std::string>& allowed,
                      std::optional<std::string> fallback);
+  // One of the allowed names, as the value it is paired with.
+  template <class Value>
+  Value choiceOf(const std::string& key, const std::vector<std::pair<std::string, Value>>& named,
+                 std::optional<std::string> fallback) {
+    std::vector<std::string> allowed;
+    for (const auto& entry : named) allowed.push_back(entry.first);
+    const std::string chosen = choice(key, allowed, fallback);
+    for (const auto& entry : named)
+      if (entry.first == chosen) return entry.second;
+    return named.front().second;  // not reached: choice() accepts the allowed names only
+  }
   // An array of numbers whose length is one of the allowed lengths.
   std::vector<double> numbers(const std::string& key, std::optional<std::vector<double>> fallback,
                               std::vector<int> lengths);

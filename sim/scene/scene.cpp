@@ -277,13 +277,13 @@ ColliderParams parseCollider(const Json& j, int index, const Scene& scene) {
   JsonFields f(j, "colliders[" + std::to_string(index) + "]", scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   ColliderParams c;
-  const auto shape =
-      f.choice("shape", {"half_space", "sphere", "box", "drum", "mesh"}, std::nullopt);
-  c.shape = shape == "half_space" ? ColliderShape::HalfSpace
-            : shape == "sphere"   ? ColliderShape::Sphere
-            : shape == "drum"     ? ColliderShape::Drum
-            : shape == "mesh"     ? ColliderShape::Mesh
-                                  : ColliderShape::Box;
+  c.shape = f.choiceOf<ColliderShape>("shape",
+                                      {{"half_space", ColliderShape::HalfSpace},
+                                       {"sphere", ColliderShape::Sphere},
+                                       {"box", ColliderShape::Box},
+                                       {"drum", ColliderShape::Drum},
+                                       {"mesh", ColliderShape::Mesh}},
+                                      std::nullopt);
   if (const Json* keys = f.array("keyframes", false)) {
     for (const char* motion : {"position", "velocity", "rotation", "angular_velocity"})
       if (f.has(motion)) f.fail(motion, "cannot be given with keyframes; the keys set the motion");
@@ -390,13 +390,13 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
   const std::vector<int> dims{scene.authored_dimension};
   Body b;
   b.name = f.string("name", "body" + std::to_string(index));
-  const auto shape =
-      f.choice("shape", {"ball", "box", "half_ball", "mesh", "points"}, std::nullopt);
-  b.shape = shape == "ball"        ? BodyShape::Ball
-            : shape == "box"       ? BodyShape::Box
-            : shape == "half_ball" ? BodyShape::HalfBall
-            : shape == "mesh"      ? BodyShape::Mesh
-                                   : BodyShape::Points;
+  b.shape = f.choiceOf<BodyShape>("shape",
+                                  {{"ball", BodyShape::Ball},
+                                   {"box", BodyShape::Box},
+                                   {"half_ball", BodyShape::HalfBall},
+                                   {"mesh", BodyShape::Mesh},
+                                   {"points", BodyShape::Points}},
+                                  std::nullopt);
   if (b.shape == BodyShape::Points) return parsePointsBody(f, b, scene, scene_fields);
   if (b.shape == BodyShape::Mesh) {
     b.mesh = parseSceneMesh(f, scene, true);

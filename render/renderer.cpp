@@ -573,7 +573,12 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   glPolygonOffset(1, 1);
   g.drawMeshes(p.mesh_gbuffer, camera, g.ground_vertices, mesh_vertices - g.ground_vertices);
   glDisable(GL_POLYGON_OFFSET_FILL);
+  // The line shader writes no normal: unmasked, the normal target would get whatever llvmpipe
+  // leaves in an unwritten output (it differed between identical runs). Masked, it keeps the
+  // normal of the surface the line lies on, which the occlusion pass reads there.
+  glColorMaski(1, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
   g.drawLines(camera, 0.5f);
+  glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);
   glDisable(GL_DEPTH_TEST);

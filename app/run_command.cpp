@@ -88,17 +88,54 @@ class FileSink final : public FrameSink {
   StageClock& clock_;
 };
 
-// Where the run's wall time went, stage by stage, with each stage's share of it: the solver's
-// stages, then the main thread's own (setup, snapshots, PLY, rendering, waiting for encoding).
-nlohmann::json stageTimes(const Simulation& simulation, const StageClock& app, double wall) {
-  nlohmann::json stages = nlohmann::json::array();
+// Where the run's wall time went, stage by stage: the solver's stages, then the main thread's own
+// (setup, snapshots, PLY, rendering, waiting for encoding), each added to its time in `earlier`
+// (the sessions before a resume, as stageTimes wrote them; stages new to this session follow).
+nlohmann::json stageTimes(const Simulation& simulation, const StageClock& app,
+                          nlohmann::json earlier) {
+  nlohmann::json stages = std::move(earlier);
   const auto add = [&](const StageSeconds& s) {
-    stages.push_back({{"stage", s.stage}, {"seconds", s.seconds}, {"share", s.seconds / wall}});
+    for (nlohmann::json& entry : stages)
+      if (entry["stage"].get<std::string>() == s.stage) {
+        entry["seconds"] = entry["seconds"].get<double>() + s.seconds;
+        return;
+      }
+    stages.push_back({{"stage", s.stage}, {"seconds", s.seconds}});
   };
   for (const StageSeconds& s : simulation.stepStages()) add(s);
   for (const StageSeconds& s : app.stages()) add(s);
   return stages;
 }
+
+// The wall time and stage times of a run's sessions so far, which a checkpoint carries on
+// (a killed session counts up to its last checkpoint).
+struct SessionTimes {
+  int sessions = 0;
+  double wall = 0;
+  nlohmann::json stages = nlohmann::json::array();
+
+  // InputError naming the checkpoint when its record is not what toJson writes.
+  static SessionTimes from(const SavedRun& saved) {
+    SessionTimes t;
+    if (!saved.run_state.contains("earlier_sessions")) return t;
+    try {
+      const nlohmann::json& e = saved.run_state["earlier_sessions"];
+      t.sessions = e.at("sessions").get<int>();
+      t.wall = e.at("wall_time").get<double>();
+      for (const nlohmann::json& stage : e.at("stages"))
+        t.stages.push_back({{"stage", stage.at("stage").get<std::string>()},
+                            {"seconds", stage.at("seconds").get<double>()}});
+    } catch (const nlohmann::json::exception&) {
+      throw InputError(saved.file +
+                       ": its record of the earlier sessions' times is not what "
+                       "snowsim writes");
+    }
+    return t;
+  }
+  nlohmann::json toJson() const {
+    return {{"sessions", sessions}, {"wall_time", wall}, {"stages", stages}};
+  }
+};
 
 // Under mpirun: per rank, what it sent the others, a step on average and in all.
 nlohmann::json rankSummary(const std::vector<RankTraffic>& ranks) {
@@ -198,7 +235,11 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
     }
   if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
   const auto start = std::chrono::steady_clock::now();
+  const auto wallTime = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
   StageClock clock;  // this thread's stages; the solver times its own
+  const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   std::unique_ptr<Simulation> simulation;
   FrameSinks sinks;
   {
@@ -243,6 +284,9 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
     const StageClock::Scope time(&clock, "checkpoint");
     nlohmann::json state = {
         {"args", options.args}, {"next_frame", next_frame}, {"step_watch", step_watch.state()}};
+    state["earlier_sessions"] = SessionTimes{earlier.sessions + 1, earlier.wall + wallTime(),
+                                             stageTimes(*simulation, clock, earlier.stages)}
+                                    .toJson();
     if (options.render.png || options.render.mp4) recordRendering(state, render, scene);
     if (writes)
       saveCheckpoint(options.out, scene, *simulation, state);
@@ -284,8 +328,11 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   else if (writes)
     removeCheckpoints(options.out);
   progress.done();
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // A resumed run's times and step statistics are of all its sessions (the solver's state
+  // carries the steps, their sizes and the solves on).
+  const double wall = earlier.wall + wallTime();
+  nlohmann::json stages = stageTimes(*simulation, clock, earlier.stages);
+  for (nlohmann::json& stage : stages) stage["share"] = stage["seconds"].get<double>() / wall;
 
   nlohmann::json summary = {{"scene", scene.name},
                             {"dimension", scene.dimension},
@@ -296,12 +343,15 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
                             {"particles", simulation->particleCount()},
                             {"frames", written},
                             {"fps", scene.fps},
-                            {"stages", stageTimes(*simulation, clock, wall)},
+                            {"stages", stages},
                             {"colliders", collidersToJson(collidersAt(scene, scene.dimension, 0))}};
   if (options.scale != 1) summary["scale"] = options.scale;
   summary["up_axis"] = options.z_up ? "z" : "y";
   if (options.vdb) summary["vdb"] = true;
-  if (saved) summary["resumed_at_frame"] = first_frame;
+  if (saved) {
+    summary["resumed_at_frame"] = first_frame;
+    summary["sessions"] = earlier.sessions + 1;
+  }
   if (simulation->steps() > 0)
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},

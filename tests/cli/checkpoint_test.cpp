@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -89,6 +90,13 @@ std::vector<std::string> runArgs(const Case& c, const fs::path& out, int threads
   return args;
 }
 
+// The checkpoint in `dir` as the run layer wrote it: its run state (next_frame: the frame resume
+// writes first; earlier_sessions: the times of the sessions so far).
+nlohmann::json runStateOf(const fs::path& dir) {
+  const fs::path file = dir / "checkpoint.snowsim";
+  return nlohmann::json::parse(snowsim::decodeCheckpoint(bytesOf(file), file).run_state);
+}
+
 std::string commandLine(const std::vector<std::string>& args) {
   std::string line;
   for (const std::string& a : args) line += " '" + a + "'";
@@ -99,7 +107,7 @@ std::string commandLine(const std::vector<std::string>& args) {
 
 // Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
 // frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
-// uninterrupted run's.
+// uninterrupted run's. Each kill leaves a later checkpoint than the one before it.
 TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
   for (const Case& c : kCases) {
     const fs::path whole = freshDir("whole_" + c.name);
@@ -108,16 +116,26 @@ TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
     const auto expected = frames(whole);
     ASSERT_GT(expected.size(), 8u);
     EXPECT_FALSE(fs::exists(whole / "checkpoint.snowsim")) << "a complete run keeps none";
-    for (int threads : {1, 2})
+    for (int threads : {1, 2}) {
+      int previous_kill_resumes_at = 0;
       for (const auto& [after_frame, delay_ms] : {std::pair{1, 0}, {3, 7}}) {
         SCOPED_TRACE(c.name + ", " + std::to_string(threads) + " threads, killed after frame " +
                      std::to_string(after_frame) + " + " + std::to_string(delay_ms) + " ms");
-        const fs::path out = freshDir("killed_" + c.name);
-        const pid_t child = startSnowsim(runArgs(c, out, threads));
-        ASSERT_TRUE(
-            waitFor(out / frameName(after_frame, "png"), std::chrono::milliseconds(delay_ms)));
-        finish(child, SIGKILL);
-        ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim"));
+        // A kill that a loaded machine let run on to the previous kill's checkpoint would test
+        // that moment twice: it is killed again, later (at most three tries).
+        fs::path out;
+        int resumes_at = 0;
+        for (int attempt = 0; attempt < 3 && resumes_at <= previous_kill_resumes_at; ++attempt) {
+          out = freshDir("killed_" + c.name);
+          const pid_t child = startSnowsim(runArgs(c, out, threads));
+          const int frame = std::max(after_frame, previous_kill_resumes_at);
+          ASSERT_TRUE(waitFor(out / frameName(frame, "png"), std::chrono::milliseconds(delay_ms)));
+          finish(child, SIGKILL);
+          ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim"));
+          resumes_at = runStateOf(out)["next_frame"].get<int>();
+        }
+        EXPECT_GT(resumes_at, previous_kill_resumes_at) << "the kill points do not differ";
+        previous_kill_resumes_at = resumes_at;
         ASSERT_NE(frames(out).size(), expected.size()) << "killed too late to test anything";
         const auto resumed =
             runSnowsim("resume " + out.string() + " --threads " + std::to_string(threads));
@@ -125,6 +143,7 @@ TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
         EXPECT_EQ(frames(out), expected);
         EXPECT_FALSE(fs::exists(out / "checkpoint.snowsim"));
       }
+    }
   }
 }
 
@@ -191,14 +210,41 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   const auto stopped = nlohmann::json::parse(std::ifstream(out / "run.json"));
   const double stopped_at = stopped["simulated_time"].get<double>();
   EXPECT_NE(stopped_at, 20 * std::round(stopped_at / 20)) << "stopped at a frame, not between";
+  const nlohmann::json first_session = runStateOf(out)["earlier_sessions"];
+  const auto resume_start = std::chrono::steady_clock::now();
   const auto resumed = runSnowsim("resume " + out.string() + " --threads 1");
+  const double resume_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - resume_start).count();
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));
   const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  const auto uninterrupted = nlohmann::json::parse(std::ifstream(whole / "run.json"));
   EXPECT_EQ(summary["frames"], 3);
-  EXPECT_EQ(summary["steps"], nlohmann::json::parse(std::ifstream(whole / "run.json"))["steps"]);
   EXPECT_EQ(summary["resumed_at_frame"], stopped["frames"]);
   EXPECT_FALSE(summary.contains("interrupted_by_signal"));
+  // The step statistics are the whole run's, as the uninterrupted run's.
+  EXPECT_EQ(summary["steps"], uninterrupted["steps"]);
+  EXPECT_EQ(summary["step_size"], uninterrupted["step_size"]);
+  // The times add up both sessions: the first one's up to its checkpoint, which it spent
+  // stepping (its "step" stages) and checkpointing, and the resumed one's.
+  EXPECT_EQ(summary["sessions"], 2);
+  EXPECT_EQ(first_session["sessions"], 1);
+  const double first_wall = first_session["wall_time"].get<double>();
+  EXPECT_GT(first_wall, 0.2) << "the first session ran 0.2 s past its first frame";
+  EXPECT_GE(summary["wall_time"].get<double>(), first_wall);
+  EXPECT_LE(summary["wall_time"].get<double>(), first_wall + resume_seconds);
+  std::map<std::string, double> seconds_by_stage;
+  for (const auto& stage : summary["stages"])
+    seconds_by_stage[stage["stage"].get<std::string>()] = stage["seconds"].get<double>();
+  double first_stages = 0;
+  for (const auto& stage : first_session["stages"]) {
+    const std::string name = stage["stage"];
+    SCOPED_TRACE(name);
+    ASSERT_TRUE(seconds_by_stage.contains(name));
+    EXPECT_GE(seconds_by_stage[name], stage["seconds"].get<double>());
+    first_stages += stage["seconds"].get<double>();
+  }
+  EXPECT_GT(first_stages, 0.5 * first_wall) << "the first session's stages are not counted";
 }
 
 // The MP4 of a killed and resumed run holds every frame once: ffprobe counts as many as PNGs.

@@ -205,6 +205,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
   const bool writes = world.rank() == 0;
   if (!writes && !std::freopen("/dev/null", "w", stderr)) throw InputError("no /dev/null");
   Scene scene = saved ? saved->scene : resolvedScene(options);
+  const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -239,7 +240,6 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
   StageClock clock;  // this thread's stages; the solver times its own
-  const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   std::unique_ptr<Simulation> simulation;
   FrameSinks sinks;
   {

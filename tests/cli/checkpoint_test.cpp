@@ -268,8 +268,9 @@ TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
   EXPECT_EQ(pngs, 11);
 }
 
-// A checkpoint that is truncated, corrupted, of another format or snowsim version, or of another
-// scene: exit 2, a message naming it, and not a byte of the run's frames changed.
+// A checkpoint that is truncated, corrupted, of another format or snowsim version, of another
+// scene or with a damaged record of its sessions: exit 2, a message naming it, and not a byte of
+// the run's frames changed.
 TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
   const fs::path out = freshDir("damaged");
   const pid_t child = startSnowsim(runArgs(kCases[0], out, 1));
@@ -288,6 +289,11 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
   other_version.header.snowsim_version = "0.0.1";
   snowsim::Checkpoint other_scene = decoded;
   other_scene.header.scene_hash ^= 1;
+  snowsim::Checkpoint bad_sessions = decoded;
+  auto run_state = nlohmann::json::parse(decoded.run_state);
+  ASSERT_TRUE(run_state.contains("earlier_sessions"));
+  run_state["earlier_sessions"]["stages"] = "none";
+  bad_sessions.run_state = run_state.dump();
   const std::pair<std::string, std::string> cases[] = {
       {good.substr(0, good.size() / 3), "truncated"},
       {good.substr(0, 10), "truncated"},
@@ -296,6 +302,7 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
       {other_format, "format 9"},
       {snowsim::encodeCheckpoint(other_version), "written by snowsim 0.0.1"},
       {snowsim::encodeCheckpoint(other_scene), "another scene"},
+      {snowsim::encodeCheckpoint(bad_sessions), "earlier sessions' times"},
   };
   for (const auto& [bytes, problem] : cases) {
     SCOPED_TRACE(problem);

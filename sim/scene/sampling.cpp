@@ -76,23 +76,18 @@ double latticeJitter(int seed, int body, const std::array<int, 3>& k, int axis) 
 
 namespace {
 
-// Adds the points of the body's lattice within [from, to] (m, per axis) for which `inside(p)`
-// holds.
-template <int D, typename Inside>
-void fillLattice(const Scene& scene, int b, const Vec3& from, const Vec3& to, Inside inside,
-                 Particles<D>& particles) {
-  const Body& body = scene.bodies[b];
-  const double spacing = particleSpacing(scene, body);
-  const double mass = particleMass<D>(body, spacing);
+// Calls visit(x) for the points of the body's lattice within [from, to] (m, per axis) that lie
+// in the domain and for which `inside(p)` holds, jittered when the body asks for it.
+template <int D, typename Inside, typename Visit>
+void forEachLatticePoint(const Scene& scene, int b, Seeding seeding, const Vec3& from,
+                         const Vec3& to, Inside inside, Visit visit) {
+  const double spacing = particleSpacing(scene, scene.bodies[b]);
   int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   for (int a = 0; a < D; ++a) {
     lo[a] = static_cast<int>(std::floor(std::max(0.0, from[a]) / spacing));
     hi[a] =
         static_cast<int>(std::ceil(std::min(scene.cells[a] * scene.cell_size, to[a]) / spacing));
   }
-  Vec<D> velocity;
-  for (int a = 0; a < D; ++a) velocity[a] = a < scene.authored_dimension ? body.velocity[a] : 0.0;
-
   std::array<int, 3> k{};
   for (k[2] = lo[2]; k[2] <= (D == 3 ? hi[2] : 0); ++k[2])
     for (k[1] = lo[1]; k[1] <= hi[1]; ++k[1])
@@ -102,13 +97,153 @@ void fillLattice(const Scene& scene, int b, const Vec3& from, const Vec3& to, In
         bool inside_domain = true;
         for (int a = 0; a < D; ++a) {
           const double jitter =
-              body.seeding == Seeding::Jittered ? latticeJitter(scene.seed, b, k, a) : 0.0;
+              seeding == Seeding::Jittered ? latticeJitter(scene.seed, b, k, a) : 0.0;
           p[a] = (k[a] + 0.5 + jitter) * spacing;
           x[a] = p[a];
           inside_domain &= k[a] >= 0 && p[a] < scene.cells[a] * scene.cell_size;
         }
-        if (inside_domain && inside(p)) particles.add(x, velocity, mass, b);
+        if (inside_domain && inside(p)) visit(x);
       }
+}
+
+// A stream of uniform numbers in [0, 1) from SplitMix64 steps: the same for the same start on
+// every platform (std's distributions are not).
+class UniformStream {
+ public:
+  explicit UniformStream(std::uint64_t start) : state_(start) {}
+  double next() {
+    state_ += 0x9e3779b97f4a7c15ull;
+    return static_cast<double>(splitMix64(state_) >> 11) * 0x1.0p-53;
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+// Poisson-disk points in the box [lo, hi) at least `radius` apart (Bridson 2007): each accepted
+// point tries `kCandidates` random points in the shell [radius, 2 radius) around it, keeping those
+// far enough from every point so far, until no point has room left around it. Sequential from one
+// stream of numbers, so the points depend on the seed alone.
+template <int D>
+std::vector<Vec<D>> poissonDiskPoints(const Vec<D>& lo, const Vec<D>& hi, double radius,
+                                      std::uint64_t seed) {
+  constexpr int kCandidates = 30;
+  // A background grid of side radius / sqrt(D) holds at most one point per cell.
+  const double side = radius / std::sqrt(static_cast<double>(D));
+  std::array<int, 3> cells{1, 1, 1};
+  for (int a = 0; a < D; ++a)
+    cells[a] = std::max(1, static_cast<int>(std::ceil((hi[a] - lo[a]) / side)));
+  std::vector<int> owner(static_cast<size_t>(cells[0]) * cells[1] * cells[2], -1);
+  auto cellOf = [&](const Vec<D>& x) {
+    std::array<int, 3> c{0, 0, 0};
+    for (int a = 0; a < D; ++a)
+      c[a] = std::min(cells[a] - 1, static_cast<int>((x[a] - lo[a]) / side));
+    return c;
+  };
+  auto indexOf = [&](const std::array<int, 3>& c) {
+    return (static_cast<size_t>(c[2]) * cells[1] + c[1]) * cells[0] + c[0];
+  };
+
+  std::vector<Vec<D>> points;
+  std::vector<int> active;
+  UniformStream uniform(seed);
+  auto accept = [&](const Vec<D>& x) {
+    owner[indexOf(cellOf(x))] = static_cast<int>(points.size());
+    active.push_back(static_cast<int>(points.size()));
+    points.push_back(x);
+  };
+  auto hasRoom = [&](const Vec<D>& x) {
+    for (int a = 0; a < D; ++a)
+      if (!(x[a] >= lo[a] && x[a] < hi[a])) return false;
+    const std::array<int, 3> c = cellOf(x);
+    // Points closer than radius lie at most ceil(sqrt(D)) = 2 background cells away.
+    std::array<int, 3> from{0, 0, 0}, to{0, 0, 0};
+    for (int a = 0; a < D; ++a)
+      from[a] = std::max(0, c[a] - 2), to[a] = std::min(cells[a] - 1, c[a] + 2);
+    std::array<int, 3> n{};
+    for (n[2] = from[2]; n[2] <= to[2]; ++n[2])
+      for (n[1] = from[1]; n[1] <= to[1]; ++n[1])
+        for (n[0] = from[0]; n[0] <= to[0]; ++n[0]) {
+          const int other = owner[indexOf(n)];
+          if (other >= 0 && (points[other] - x).squaredNorm() < radius * radius) return false;
+        }
+    return true;
+  };
+
+  Vec<D> first;
+  for (int a = 0; a < D; ++a) first[a] = lo[a] + uniform.next() * (hi[a] - lo[a]);
+  accept(first);
+  while (!active.empty()) {
+    const size_t slot =
+        std::min(active.size() - 1, static_cast<size_t>(uniform.next() * active.size()));
+    const Vec<D> centre = points[active[slot]];
+    bool placed = false;
+    for (int attempt = 0; attempt < kCandidates && !placed; ++attempt) {
+      // A direction uniform on the sphere (circle), by rejection from the cube, at a distance
+      // whose density grows as r^(D-1), so the shell is covered evenly.
+      Vec<D> direction;
+      double length2 = 0;
+      do {
+        for (int a = 0; a < D; ++a) direction[a] = 2 * uniform.next() - 1;
+        length2 = direction.squaredNorm();
+      } while (length2 > 1 || length2 < 1e-12);
+      const double u = uniform.next();
+      const double distance =
+          radius * std::pow(1 + u * (std::pow(2.0, D) - 1), 1.0 / D);  // in [r, 2r)
+      const Vec<D> candidate = centre + direction * (distance / std::sqrt(length2));
+      if (hasRoom(candidate)) {
+        accept(candidate);
+        placed = true;
+      }
+    }
+    if (!placed) {
+      active[slot] = active.back();
+      active.pop_back();
+    }
+  }
+  return points;
+}
+
+// The Poisson-disk radius, in lattice spacings, at which Bridson's sampling puts as many points in
+// a volume as the lattice does (measured on large boxes: tests/sim/scene_test.cpp).
+template <int D>
+constexpr double kPoissonRadius = D == 2 ? 0.785 : 0.833;
+
+// Adds the body's particles within [from, to] (m, per axis) for which `inside(p)` holds, placed by
+// its seeding. Every particle carries an equal share of the mass the body's lattice holds there,
+// so a Poisson-disk body, whose count differs from the lattice's by a few percent, weighs the same.
+template <int D, typename Inside>
+void fillBody(const Scene& scene, int b, const Vec3& from, const Vec3& to, Inside inside,
+              Particles<D>& particles) {
+  const Body& body = scene.bodies[b];
+  const double spacing = particleSpacing(scene, body);
+  Vec<D> velocity;
+  for (int a = 0; a < D; ++a) velocity[a] = a < scene.authored_dimension ? body.velocity[a] : 0.0;
+  if (body.seeding != Seeding::Poisson) {
+    const double mass = particleMass<D>(body, spacing);
+    forEachLatticePoint<D>(scene, b, body.seeding, from, to, inside,
+                           [&](const Vec<D>& x) { particles.add(x, velocity, mass, b); });
+    return;
+  }
+  long long lattice_count = 0;
+  forEachLatticePoint<D>(scene, b, Seeding::Lattice, from, to, inside,
+                         [&](const Vec<D>&) { ++lattice_count; });
+  Vec<D> lo, hi;
+  for (int a = 0; a < D; ++a) {
+    lo[a] = std::max(0.0, from[a]);
+    hi[a] = std::min(scene.cells[a] * scene.cell_size, to[a]);
+  }
+  const std::uint64_t seed =
+      splitMix64(static_cast<std::uint64_t>(scene.seed)) ^ static_cast<std::uint64_t>(b) << 58;
+  std::vector<Vec<D>> kept;
+  for (const Vec<D>& x : poissonDiskPoints<D>(lo, hi, kPoissonRadius<D> * spacing, seed)) {
+    Vec3 p{0, 0, 0};
+    for (int a = 0; a < D; ++a) p[a] = x[a];
+    if (inside(p)) kept.push_back(x);
+  }
+  const double mass = particleMass<D>(body, spacing) * static_cast<double>(lattice_count) /
+                      static_cast<double>(std::max<size_t>(1, kept.size()));
+  for (const Vec<D>& x : kept) particles.add(x, velocity, mass, b);
 }
 
 // Adds w x (x - c) to the velocities of particles [first, end), c their centre of mass, so the
@@ -146,7 +281,7 @@ Particles<D> sampleBodies(const Scene& scene) {
       const LevelSet level_set(mesh, std::min(spacing, scene.cell_size / 2), 2 * spacing);
       const auto [from, to] = mesh.bounds();
       const int first = particles.size();
-      fillLattice<D>(
+      fillBody<D>(
           scene, index, from, to, [&](const Vec3& p) { return level_set.phi(p) < 0; }, particles);
       spin<D>(body.angular_velocity, first, particles);
       continue;
@@ -161,7 +296,7 @@ Particles<D> sampleBodies(const Scene& scene) {
         to[a] = body.center[a] + half;
       }
     }
-    fillLattice<D>(
+    fillBody<D>(
         scene, index, from, to, [&](const Vec3& p) { return bodyContains(body, p, shape_dim); },
         particles);
   }

@@ -327,11 +327,28 @@ std::string latticeProblem(int count, int dimension) {
          "; allowed: " + (dimension == 2 ? "1, 4, 9, 16, ..." : "1, 8, 27, 64, ...");
 }
 
+}  // namespace
+
+const char* seedingName(Seeding seeding) {
+  switch (seeding) {
+    case Seeding::Lattice:
+      return "lattice";
+    case Seeding::Jittered:
+      return "jittered";
+    case Seeding::Poisson:
+      return "poisson";
+  }
+  return "lattice";
+}
+
+namespace {
+
 Seeding parseSeeding(JsonFields& f, Seeding fallback) {
-  return f.choice("seeding", {"lattice", "jittered"},
-                  fallback == Seeding::Jittered ? "jittered" : "lattice") == "jittered"
-             ? Seeding::Jittered
-             : Seeding::Lattice;
+  return f.choiceOf<Seeding>("seeding",
+                             {{"lattice", Seeding::Lattice},
+                              {"jittered", Seeding::Jittered},
+                              {"poisson", Seeding::Poisson}},
+                             seedingName(fallback));
 }
 
 // What every body gives: its lattice's particles per cell (a points body's particles take their

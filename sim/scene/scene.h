@@ -20,9 +20,12 @@ using Vec3 = std::array<double, 3>;
 enum class SolverType { DensityHybrid, Mpm };
 // Points: the particles of a PLY file (a frame of a run, or another tool's state), as they are.
 enum class BodyShape { Ball, Box, HalfBall, Mesh, Points };
-// Where a body's particles sit in their lattice cells: at the centres, or each at a random point
-// of its cell (deterministic for the scene's seed), which breaks the lattice's stripes in 3D.
-enum class Seeding { Lattice, Jittered };
+// Where a body's particles sit: at the centres of their lattice cells, each at a random point of
+// its cell (which breaks the lattice's stripes in 3D), or Poisson-disk points (Bridson 2007), as
+// many as the lattice's to a few percent but with no lattice at all; deterministic for the seed.
+enum class Seeding { Lattice, Jittered, Poisson };
+// The name a scene file gives the seeding: "lattice", "jittered" or "poisson".
+const char* seedingName(Seeding seeding);
 
 // The readings of the report's vague passages (docs/report-readings.md).
 enum class CriticalReference {
@@ -192,7 +195,7 @@ struct Scene {
   // The particles per cell of every body that gives none: 9 in 2D, 27 in 3D unless the file says.
   int particles_per_cell = 9;
   // Jittered for scenes authored in 3D, else on the lattice, unless the file says; the seed makes
-  // the jitter repeatable.
+  // jittered and Poisson-disk seeding repeatable.
   Seeding seeding = Seeding::Lattice;
   int seed = 1;
   std::vector<Body> bodies;

@@ -14,10 +14,6 @@ Json entries(const Vec3& v, int dimension) {
   return Json(std::vector<double>(v.begin(), v.begin() + dimension));
 }
 
-const char* seedingName(Seeding seeding) {
-  return seeding == Seeding::Jittered ? "jittered" : "lattice";
-}
-
 const char* kernelName(KernelType k) {
   return k == KernelType::Cubic ? "cubic" : "quadratic";
 }

@@ -492,5 +492,67 @@ TEST(Scene, JitteredSeedingIsRepeatableAndStaysInItsCells) {
             std::string::npos);
 }
 
+// Poisson-disk seeding: the same particles for the same seed (it is sequential, so no thread count
+// or rank can change it), inside the body, no two closer than the disk radius, as many as the
+// ball's volume holds at the lattice's density to 3%, and the body's mass that of its lattice.
+template <int D>
+void expectPoissonDiskBody(const std::string& text, double ball_volume) {
+  const std::string path = writeTemp(text);
+  const Scene scene = loadScene(path, {"bodies.0.seeding=poisson"});
+  const Body& body = scene.bodies[0];
+  ASSERT_EQ(body.seeding, Seeding::Poisson);
+  const Particles<D> a = sampleBodies<D>(scene);
+  EXPECT_EQ(a.x, sampleBodies<D>(loadScene(path, {"bodies.0.seeding=poisson"})).x);
+  EXPECT_NE(a.x, sampleBodies<D>(loadScene(path, {"bodies.0.seeding=poisson", "seed=2"})).x);
+
+  const double spacing = particleSpacing(scene, body);
+  const double expected_count = ball_volume / std::pow(spacing, D);
+  EXPECT_NEAR(a.size(), expected_count, 0.03 * expected_count);
+
+  const Particles<D> lattice = sampleBodies<D>(loadScene(path, {"bodies.0.seeding=lattice"}));
+  double mass = 0, lattice_mass = 0;
+  for (double m : a.mass) mass += m;
+  for (double m : lattice.mass) lattice_mass += m;
+  EXPECT_NEAR(mass, lattice_mass, 1e-12 * lattice_mass) << "the lattice's mass";
+  EXPECT_NEAR(mass, body.density * ball_volume, 0.03 * body.density * ball_volume);
+
+  // Closest pair by brute force: Bridson's points keep at least 0.78 spacings apart, the
+  // lattice's one spacing, a uniform random set of this size would have pairs far closer.
+  double closest = 1e300;
+  for (int i = 0; i < a.size(); ++i) {
+    Vec3 p{0, 0, 0};
+    for (int k = 0; k < D; ++k) p[k] = a.x[i][k];
+    EXPECT_TRUE(bodyContains(body, p, D));
+    for (int j = i + 1; j < a.size(); ++j) closest = std::min(closest, (a.x[i] - a.x[j]).norm());
+  }
+  EXPECT_GE(closest, 0.78 * spacing);
+  EXPECT_LT(closest, 0.9 * spacing) << "not a lattice";
+}
+
+TEST(Scene, PoissonDiskSeedingFillsTheBodyWithItsMass) {
+  expectPoissonDiskBody<3>(kBall3d, 4.0 / 3 * M_PI * std::pow(0.03, 3));
+  expectPoissonDiskBody<2>(R"({
+    "name": "disk", "grid": {"cells": [10, 10], "cell_size": 0.01}, "particles_per_cell": 9,
+    "bodies": [{"shape": "ball", "center": [0.05, 0.05], "radius": 0.04}]
+  })",
+                           M_PI * 0.04 * 0.04);
+}
+
+TEST(Scene, SeedingIsChosenPerBodyAndChecked) {
+  const Scene scene = loadScene(writeTemp(kBall3d), {"seeding=poisson"});
+  EXPECT_EQ(scene.seeding, Seeding::Poisson);
+  EXPECT_EQ(scene.bodies[0].seeding, Seeding::Poisson) << "the scene's default";
+  EXPECT_EQ(loadScene(writeTemp(kBall3d), {"seeding=poisson", "bodies.0.seeding=lattice"})
+                .bodies[0]
+                .seeding,
+            Seeding::Lattice);
+  EXPECT_NE(
+      errorOf(kBall3d, {"bodies.0.seeding=poison"})
+          .find(
+              R"(bodies[0].seeding: "poison" is not allowed; allowed: "lattice", "jittered", "poisson")"),
+      std::string::npos)
+      << errorOf(kBall3d, {"bodies.0.seeding=poison"});
+}
+
 }  // namespace
 }  // namespace snowsim

@@ -70,6 +70,8 @@ void applySolver(const std::string& label, Scene& scene) {
     return;
   }
   scene.solver = SolverType::Mpm;
+  // Single precision only on its own axis, whatever the scene's default (float for explicit 3D).
+  scene.mpm.precision = label == "mpm_mls_float" ? MpmPrecision::Float : MpmPrecision::Double;
   // The reference: APIC with the adaptive CFL step, capped by the given dt.
   if (label == "reference_mpm_apic") {
     scene.mpm.transfer = MpmTransfer::Apic;
@@ -78,9 +80,8 @@ void applySolver(const std::string& label, Scene& scene) {
   scene.mpm.adaptive_dt = false;
   const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
   if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
-  // The axes beside the solvers: explicit MLS in single precision, and explicit MLS at the
-  // default adaptive step (capped by the sweep's dt).
-  if (label == "mpm_mls_float") scene.mpm.precision = MpmPrecision::Float;
+  // The axis beside the solvers: explicit MLS at the default adaptive step (capped by the sweep's
+  // dt).
   if (label == "mpm_mls_adaptive") scene.mpm.adaptive_dt = true;
   if (label == "mpm_pic_flip")
     scene.mpm.transfer = MpmTransfer::PicFlip;

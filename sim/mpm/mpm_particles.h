@@ -22,9 +22,8 @@ struct MpmParticles : Particles<D, T> {
   std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<LameOf<T>> lame;  // hardened Lamé parameters (eq. 8), refreshed with J_P
 
-  // One array of each element type, for a reordering that gathers into a spare array and swaps.
-  using SpareArrays = std::tuple<std::vector<Vec<D, T>>, std::vector<Mat<D, T>>, std::vector<T>,
-                                 std::vector<int>, std::vector<LameOf<T>>>;
+  // The element types of the arrays, for a reordering that needs a spare buffer of the widest.
+  using ElementTypes = std::tuple<Vec<D, T>, Mat<D, T>, T, int, LameOf<T>>;
 
   MpmParticles() = default;
   // The snow starts unstrained: F_E = I, J_P = 1, no affine velocity.

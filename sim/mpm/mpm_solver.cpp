@@ -1,5 +1,6 @@
 #include "sim/mpm/mpm_solver.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -255,19 +256,41 @@ void MpmSolver<D, T>::placeScreens() {
     screen.offset = screen.normal.dot(collider.position);
     screen.margin = margin * (1 + collider.position.norm());
   }
+  clear_lo_.setConstant(-std::numeric_limits<Real>::infinity());
+  clear_hi_.setConstant(std::numeric_limits<Real>::infinity());
+  every_collider_.clear();
+  uncovered_colliders_.clear();
+  for (int c = 0; c < static_cast<int>(colliders_.size()); ++c) {
+    every_collider_.push_back(c);
+    const ColliderScreen& screen = screens_[c];
+    int axis = -1;  // the axis of an axis-aligned half space's normal
+    for (int a = 0; a < D; ++a)
+      if (screen.half_space && std::abs(screen.normal[a]) == 1) axis = a;
+    if (axis < 0 || screen.normal.squaredNorm() != 1) {
+      uncovered_colliders_.push_back(c);
+      continue;
+    }
+    // Clear of it: normal[axis] x[axis] > offset + margin, where mayTouch is false.
+    const Real bound = screen.offset + screen.margin;
+    if (screen.normal[axis] > 0)
+      clear_lo_[axis] = std::max(clear_lo_[axis], bound);
+    else
+      clear_hi_[axis] = std::min(clear_hi_[axis], -bound);
+  }
 }
 
 template <int D, class T>
 void MpmSolver<D, T>::collideNode(int k) {
   if (fields_.mass[k] <= 0) return;
   const Vec<D> x = grid_.position(grid_.coords(k));
-  const int colliders = static_cast<int>(colliders_.size());
+  const std::vector<int>& near = collidersNear(x);
+  if (near.empty()) return;
   if constexpr (double_precision) {
-    for (int c = 0; c < colliders; ++c)
+    for (const int c : near)
       if (mayTouch(c, x)) colliders_[c].collide(x, fields_.velocity[k]);
   } else {  // the colliders work in double
     Vec<D> v = fields_.velocity[k].template cast<Real>();
-    for (int c = 0; c < colliders; ++c)
+    for (const int c : near)
       if (mayTouch(c, x)) colliders_[c].collide(x, v);
     fields_.velocity[k] = v.template cast<T>();
   }
@@ -353,15 +376,17 @@ void MpmSolver<D, T>::updateDeformation(int p, T dt) {
 
 template <int D, class T>
 void MpmSolver<D, T>::collideParticle(int p) {
-  const int colliders = static_cast<int>(colliders_.size());
+  // The colliders work in double (a float position converts exactly).
+  const Vec<D> x = particles_.x[p].template cast<Real>();
+  const std::vector<int>& near = collidersNear(x);
+  if (near.empty()) return;
   if constexpr (double_precision) {
-    for (int c = 0; c < colliders; ++c)
-      if (mayTouch(c, particles_.x[p])) colliders_[c].collide(particles_.x[p], particles_.v[p]);
-  } else {  // the colliders work in double
-    const Vec<D> x = particles_.x[p].template cast<Real>();
+    for (const int c : near)
+      if (mayTouch(c, x)) colliders_[c].collide(x, particles_.v[p]);
+  } else {
     Vec<D> v = particles_.v[p].template cast<Real>();
     bool touched = false;
-    for (int c = 0; c < colliders; ++c)
+    for (const int c : near)
       if (mayTouch(c, x)) {
         colliders_[c].collide(x, v);
         touched = true;
@@ -374,14 +399,14 @@ template <int D, class T>
 void MpmSolver<D, T>::advect(int p, T dt) {
   V& x = particles_.x[p];
   x += dt * particles_.v[p];
-  const int colliders = static_cast<int>(colliders_.size());
+  Vec<D> x_double = x.template cast<Real>();
+  const std::vector<int>& near = collidersNear(x_double);
   if constexpr (double_precision) {
-    for (int c = 0; c < colliders; ++c)
+    for (const int c : near)
       if (mayTouch(c, x)) colliders_[c].pushOut(x);
   } else {
-    Vec<D> x_double = x.template cast<Real>();
     bool touched = false;
-    for (int c = 0; c < colliders; ++c)
+    for (const int c : near)
       if (mayTouch(c, x_double)) {
         colliders_[c].pushOut(x_double);
         touched = true;

@@ -178,6 +178,16 @@ class MpmSolver final : public Solver<D> {
     const ColliderScreen& s = screens_[c];
     return !s.half_space || s.normal.dot(x) - s.offset <= s.margin;
   }
+  // Most particles are well inside the domain: a box test clears them of every axis-aligned half
+  // space (the domain walls) at once, with the screens' margins, so only the colliders the box
+  // does not cover are screened one by one. Set with the screens.
+  Vec<D> clear_lo_, clear_hi_;
+  std::vector<int> every_collider_, uncovered_colliders_;
+  const std::vector<int>& collidersNear(const Vec<D>& x) const {
+    const bool clear =
+        (x.array() > clear_lo_.array()).all() && (x.array() < clear_hi_.array()).all();
+    return clear ? uncovered_colliders_ : every_collider_;
+  }
   Real collider_speed_ = 0;  // the fastest any point of a collider moves (fastestColliderSpeed)
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cstddef>
 #include <limits>
 #include <string_view>
 #include <tuple>
@@ -30,17 +31,15 @@
 
 namespace snowsim {
 
-// The index of type T among the tuple's element types.
-template <class T, class... Ts>
-constexpr int tupleIndex(std::tuple<Ts...>*) {
-  int index = 0, found = -1;
-  ((std::is_same_v<T, Ts> ? found = index : 0, ++index), ...);
-  return found;
+// The size of the widest of the tuple's element types.
+template <class... Ts>
+constexpr size_t widestElement(std::tuple<Ts...>*) {
+  return std::max({sizeof(Ts)...});
 }
 
 // P: the particle container, with its scalar type Scalar (the precision of the partial grids),
-// positions x, forEachArray(f) over every per-particle array, and SpareArrays, a tuple of one
-// std::vector of each element type those arrays have.
+// positions x, forEachArray(f) over every per-particle array, and ElementTypes, a tuple of the
+// element types those arrays have.
 template <int D, class P>
 class ParticleGridSchedule final : public LoopRunner {
  public:
@@ -166,9 +165,13 @@ class ParticleGridSchedule final : public LoopRunner {
   static constexpr int sorted_storage_interval = 16;
   static constexpr int chunk = 64;  // particles of one term of orderedSum, in sorted order
 
-  // Every per-particle array permuted into the sorted order of the last binning, each gathered
-  // into the spare array of its type, which then swap: the arrays' data pointers change.
+  // Every per-particle array permuted into the sorted order of the last binning, one array after
+  // the other: gathered into the spare buffer, then copied back.
   void storeInSortedOrder(P& particles);
+  void resizeSpare() {
+    constexpr size_t widest = widestElement(static_cast<typename P::ElementTypes*>(nullptr));
+    spare_.resize((particles_ * widest + sizeof(SpareUnit) - 1) / sizeof(SpareUnit));
+  }
   // Zero over the updated nodes: only a scatter no grid stage followed needs it.
   void emptyPartialGrids();
   void sumPartialGrids(int k, Fields& fields);
@@ -200,7 +203,10 @@ class ParticleGridSchedule final : public LoopRunner {
   StageClock clock_;
   long steps_ = 0;
   long stored_step_ = -sorted_storage_interval;
-  typename P::SpareArrays spare_;  // one array of each element type: the sort's target
+  // The sort's target, as wide as one array of the widest element type (not one of each: it
+  // would cost more bytes per particle than the particles' widest arrays), aligned for any type.
+  using SpareUnit = std::max_align_t;
+  std::vector<SpareUnit> spare_;
   std::vector<Real> chunk_sums_;
 };
 
@@ -349,42 +355,26 @@ void ParticleGridSchedule<D, P>::run(int count, void (*body)(void*, int, int), v
 template <int D, class P>
 void ParticleGridSchedule<D, P>::storeInSortedOrder(P& particles) {
   // Each part gathers the places its particle pass will read, so a part's particles end up in its
-  // own thread's cache. Round r takes the r-th array of each element type at once, so the threads
-  // meet twice a round rather than twice an array. Arrays left empty (unused) are skipped.
-  using Spare = typename P::SpareArrays;
-  constexpr int types = std::tuple_size_v<Spare>;
-  const auto spareOf = [&]<class T>(std::vector<T>&) -> std::vector<T>& {
-    return std::get<std::vector<T>>(spare_);
-  };
-  const auto typeOf = [&]<class T>(const std::vector<T>&) {
-    return tupleIndex<std::vector<T>>(static_cast<Spare*>(nullptr));
-  };
-  const auto forArraysOfRound = [&](int round, auto&& f) {
-    std::array<int, types> met{};  // per type, the arrays met so far
-    particles.forEachArray([&](auto& array) {
-      if (!array.empty() && met[typeOf(array)]++ == round) f(array);
-    });
-  };
+  // own thread's cache; it copies them back after every part has gathered from the array. Arrays
+  // left empty (unused) are skipped.
   const auto places = [&](int part, auto&& f) {  // the places of the part's particle pass
     const auto [first, last] = passChunks(part);
     for (int o = chunkStart(first); o < chunkStart(last); ++o) f(o);
   };
-  std::array<int, types> arrays{};
-  particles.forEachArray([&](auto& array) { arrays[typeOf(array)] += !array.empty(); });
-  const int rounds = *std::max_element(arrays.begin(), arrays.end());
-  for (int round = 0; round < rounds; ++round) {
+  particles.forEachArray([&]<class E>(std::vector<E>& array) {
+    static_assert(sizeof(E) <= widestElement(static_cast<typename P::ElementTypes*>(nullptr)),
+                  "ElementTypes must list the type of every array");
+    if (array.empty()) return;
+    E* spare = reinterpret_cast<E*>(spare_.data());
     team_.forEachPart("sort: gather", [&](int part) {
-      forArraysOfRound(round, [&](auto& array) {
-        auto& spare = spareOf(array);
-        places(part, [&](int o) { spare[o] = array[binning_.sorted(o)]; });
-      });
-      // A part reads the order at its own places only: it may reset them once it has gathered.
-      if (round == rounds - 1) places(part, [&](int o) { binning_.storedInOrder(o); });
+      places(part, [&](int o) { spare[o] = array[binning_.sorted(o)]; });
     });
-    team_.serially("sort: swap", [&] {
-      forArraysOfRound(round, [&](auto& array) { array.swap(spareOf(array)); });
-    });
-  }
+    team_.forEachPart("sort: copy back",
+                      [&](int part) { places(part, [&](int o) { array[o] = spare[o]; }); });
+  });
+  // A part reads the order at its own places only: it may reset them once every array is stored.
+  team_.forEachPart("sort: reset",
+                    [&](int part) { places(part, [&](int o) { binning_.storedInOrder(o); }); });
 }
 
 template <int D, class P>
@@ -395,7 +385,7 @@ ParticleGridSchedule<D, P>::ParticleGridSchedule(const GridGeometry<D>& grid, in
       parallel_(particles >= parallel_min_particles),
       threads_(threads > 0 ? threads : omp_get_max_threads()),
       binning_(grid, particles) {
-  std::apply([&](auto&... spare) { (spare.resize(particles), ...); }, spare_);
+  resizeSpare();
   chunk_sums_.resize((particles + chunk - 1) / chunk);
   partial_.resize(Binning::colours);
   for (PartialGrid& g : partial_) {
@@ -412,7 +402,7 @@ void ParticleGridSchedule<D, P>::resize(const std::vector<Position>& x) {
   particles_ = particles;
   binning_.resize(particles);
   binning_.bin(team_, particle_shares_, x);
-  std::apply([&](auto&... spare) { (spare.resize(particles), ...); }, spare_);
+  resizeSpare();
   chunk_sums_.assign((particles + chunk - 1) / chunk, 0);
   binned_since_stored_ = true;
 }

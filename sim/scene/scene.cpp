@@ -191,9 +191,18 @@ ColliderType parseColliderType(JsonFields& f, const std::string& key, const std:
                        : ColliderType::Separating;
 }
 
-MpmParams parseMpm(const Json* j, const std::string& file) {
+MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
   MpmParams p;
-  if (!j) return p;
+  // Float by default where it pays, an explicit 3D step (docs/performance.md, "Precision");
+  // double where the state is small (2D) or the solve needs it (semi-implicit).
+  const auto defaultPrecision = [&] {
+    return dimension == 3 && p.integrator == MpmIntegrator::Explicit ? MpmPrecision::Float
+                                                                     : MpmPrecision::Double;
+  };
+  if (!j) {
+    p.precision = defaultPrecision();
+    return p;
+  }
   JsonFields f(*j, "mpm", file);
   const auto transfer = f.choice("transfer", {"pic_flip", "apic", "mls"}, "mls");
   p.transfer = transfer == "pic_flip" ? MpmTransfer::PicFlip
@@ -214,7 +223,8 @@ MpmParams parseMpm(const Json* j, const std::string& file) {
   p.initial_volume = f.choice("initial_volume", {"lattice", "grid_density"}, "lattice") == "lattice"
                          ? InitialVolume::Lattice
                          : InitialVolume::GridDensity;
-  p.precision = f.choice("precision", {"double", "float"}, "double") == "double"
+  p.precision = f.choice("precision", {"double", "float"},
+                         defaultPrecision() == MpmPrecision::Float ? "float" : "double") == "double"
                     ? MpmPrecision::Double
                     : MpmPrecision::Float;
   if (p.precision == MpmPrecision::Float && p.integrator == MpmIntegrator::SemiImplicit)
@@ -554,7 +564,7 @@ Scene parseScene(const Json& root, const std::string& file) {
                  ? SolverType::Mpm
                  : SolverType::DensityHybrid;
   s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
-  s.mpm = parseMpm(f.object("mpm", false), file);
+  s.mpm = parseMpm(f.object("mpm", false), file, s.dimension);
   s.material = parseMaterial(f.object("material", false), file);
   if (const Json* colliders = f.array("colliders", false))
     for (size_t i = 0; i < colliders->size(); ++i)

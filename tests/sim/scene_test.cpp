@@ -57,6 +57,19 @@ TEST(Scene, MinimalSceneGetsTheReportDefaults) {
   EXPECT_EQ(s.bodies[0].particles_per_cell, 9);
 }
 
+// Float where it pays (an explicit 3D step), double elsewhere; the scene's own choice wins.
+TEST(Scene, PrecisionDefaultsToFloatForExplicit3D) {
+  const auto precision = [](const std::vector<std::string>& overrides) {
+    return loadScene(writeTemp(kMinimal), overrides).mpm.precision;
+  };
+  EXPECT_EQ(precision({"solver=mpm"}), MpmPrecision::Double);
+  EXPECT_EQ(precision({"solver=mpm", "dimension=3"}), MpmPrecision::Float);
+  EXPECT_EQ(precision({"solver=mpm", "dimension=3", "mpm.integrator=semi_implicit"}),
+            MpmPrecision::Double);
+  EXPECT_EQ(precision({"solver=mpm", "dimension=3", "mpm.precision=double"}), MpmPrecision::Double);
+  EXPECT_EQ(precision({"solver=mpm", "mpm.precision=float"}), MpmPrecision::Float);
+}
+
 TEST(Scene, MalformedJsonNamesFileLineAndColumn) {
   const std::string message = errorOf("{\n  \"name\": \"x\",\n  \"grid\": {\"cells\": [10 12]}\n}");
   EXPECT_NE(message.find(".json:3:"), std::string::npos) << message;

@@ -368,6 +368,10 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
                    scene.file.c_str(), solves.unconverged, solves.solves,
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
+  if (const SleepTally sleep = simulation->autoSleep(); sleep.particle_steps > 0)
+    summary["auto_sleep"] = {
+        {"asleep_share_of_particle_steps", double(sleep.asleep_steps) / sleep.particle_steps},
+        {"asleep_share_at_end", double(sleep.asleep_now) / sleep.particles}};
   if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
   if (options.render.png || options.render.mp4) recordRendering(summary, render, scene);
   if (options.render.mp4) summary["video"] = video_name;

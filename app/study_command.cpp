@@ -80,15 +80,16 @@ void applySolver(const std::string& label, Scene& scene) {
   scene.mpm.adaptive_dt = false;
   const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
   if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
-  // The axis beside the solvers: explicit MLS at the default adaptive step (capped by the sweep's
-  // dt).
+  // The axes beside the solvers: explicit MLS at the default adaptive step (capped by the
+  // sweep's dt), and explicit MLS with auto-sleep at its defaults.
   if (label == "mpm_mls_adaptive") scene.mpm.adaptive_dt = true;
+  if (label == "mpm_mls_sleep") scene.mpm.auto_sleep.enabled = true;
   if (label == "mpm_pic_flip")
     scene.mpm.transfer = MpmTransfer::PicFlip;
   else if (label == "mpm_apic" || label == "mpm_apic_semi")
     scene.mpm.transfer = MpmTransfer::Apic;
   else if (label == "mpm_mls" || label == "mpm_mls_semi" || label == "mpm_mls_float" ||
-           label == "mpm_mls_adaptive")
+           label == "mpm_mls_adaptive" || label == "mpm_mls_sleep")
     scene.mpm.transfer = MpmTransfer::Mls;
   else
     throw InputError("study: unknown solver label '" + label + "'");
@@ -141,8 +142,9 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              0.3,
              {1.4e4, 1.4e5, 1.4e6},
              false}};
-  if (name == "axes") {  // precision and step policy against the reference, explicit MLS
-    const std::vector<std::string> axes = {"mpm_mls", "mpm_mls_float", "mpm_mls_adaptive"};
+  if (name == "axes") {  // precision, step policy and auto-sleep against the reference
+    const std::vector<std::string> axes = {"mpm_mls", "mpm_mls_float", "mpm_mls_adaptive",
+                                           "mpm_mls_sleep"};
     return {{{"snowball_drop", "column_thrown_ball"}, axes, {0.002, 5e-4, 2e-4}, {1}, {9}, 0.5},
             {{"study_smash_3d"}, axes, {0.002, 5e-4}, {1}, {4}, 0.3}};
   }

@@ -139,6 +139,29 @@ cd "$work"
     echo 'unset multiplot'
     plots="$plots precision_and_step"
   fi
+  # Auto-sleep (--preset axes): the errors of explicit MLS awake and with auto-sleep against
+  # dt, density field above and centre of mass below, one column per scene.
+  sleep_scenes=$(awk -F, '$3 == "mpm_mls_sleep" {print $2}' axes_rows | sort -u)
+  if [ -n "$sleep_scenes" ]; then
+    columns=$(echo "$sleep_scenes" | wc -l)
+    echo "set output '$out/auto_sleep.png'"
+    echo "set terminal pngcairo size $((380 * columns)),700 font ',10' noenhanced"
+    echo "set multiplot layout 2,$columns title 'Explicit MLS against the reference, awake and with auto-sleep (mpm.auto_sleep defaults); runs that diverged are left out'"
+    echo 'unset logscale; set logscale xy; set xlabel "dt (s)"; set key inside top left'
+    for row in 14 16; do
+      [ $row = 14 ] && label="density-field error" || label="centre-of-mass error (m)"
+      for scene in $sleep_scenes; do
+        for s in mpm_mls mpm_mls_sleep; do
+          awk -F, -v s=$s -v sc=$scene -v c=$row '$3 == s && $2 == sc && $c != "" {print $4, $c}' \
+            axes_rows | sort -g > "sleep.$scene.$s.$row"
+        done
+        echo "set title '$scene'; set ylabel '$label'"
+        echo "plot 'sleep.$scene.mpm_mls.$row' u 1:2 w lp pt 7 t 'awake', 'sleep.$scene.mpm_mls_sleep.$row' u 1:2 w lp pt 6 ps 1.6 t 'auto-sleep'"
+      done
+    done
+    echo 'unset multiplot'
+    plots="$plots auto_sleep"
+  fi
 } > charts.gp
 
 # The stability map: dt against Young's modulus, one panel per solver, each run marked by how

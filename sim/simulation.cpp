@@ -73,6 +73,7 @@ class SimulationOf final : public Simulation {
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particles().size(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
+  SleepTally autoSleep() const override { return solver_->autoSleep(); }
   std::vector<RankTraffic> rankTraffic() const override { return solver_->rankTraffic(); }
   double stepSeconds() const override { return solver_->stepSeconds(); }
   StepLimit stepLimit() const override { return solver_->stepLimit(); }

@@ -32,6 +32,7 @@ class Simulation {
   virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
   virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
+  virtual SleepTally autoSleep() const = 0;       // auto-sleep so far (mpm.auto_sleep)
   // Under mpirun, what each rank sent the others (sim/distributed/); every rank must ask.
   virtual std::vector<RankTraffic> rankTraffic() const = 0;
   // The wall time of the steps so far.

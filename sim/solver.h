@@ -23,6 +23,13 @@ struct StepSizes {
   double smallest = std::numeric_limits<double>::infinity(), largest = 0;
 };
 
+// Auto-sleep over a run's steps (mpm.auto_sleep): the particle-steps taken, the share of them
+// the particles slept through, and how many particles slept through the last step.
+struct SleepTally {
+  long particle_steps = 0, asleep_steps = 0;
+  long asleep_now = 0, particles = 0;
+};
+
 // What bounds the stable step now, for telling a user why it shrank: the particle whose signal
 // speed sets the step, that speed split into the particle's own speed (the step keeps it from
 // crossing a cell) and its elastic wave speed (an explicit step must resolve the wave), which
@@ -90,6 +97,9 @@ class Solver {
 
   // The linear solves of its semi-implicit steps so far (none for an explicit solver).
   virtual SolveTally implicitSolves() const { return {}; }
+
+  // Auto-sleep so far (nothing for a solver without it, or with it off).
+  virtual SleepTally autoSleep() const { return {}; }
 
   // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
   virtual void describe(Snapshot& snapshot) const = 0;

@@ -21,6 +21,9 @@ struct MpmParticles : Particles<D, T> {
   std::vector<T> J_P;           // det F_P, plastic volume ratio
   std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<LameOf<T>> lame;  // hardened Lamé parameters (eq. 8), refreshed with J_P
+  // Auto-sleep (mpm.auto_sleep): the steps in a row the particle and its stencil's nodes have
+  // moved slower than the sleep speed; asleep once it reaches the sleep steps. Empty when off.
+  std::vector<int> calm_steps;
 
   // The element types of the arrays, for a reordering that needs a spare buffer of the widest.
   using ElementTypes = std::tuple<Vec<D, T>, Mat<D, T>, T, int, LameOf<T>>;
@@ -38,11 +41,12 @@ struct MpmParticles : Particles<D, T> {
     lame.assign(n, hardenedLame<T>(material, 1));
   }
 
-  // Every array, empty ones included (V_E in 2D): a reordering skips those.
+  // Every array, empty ones included (V_E in 2D, calm_steps without auto-sleep): a reordering
+  // skips those.
   template <class F>
   void forEachArray(F&& f) {
     Particles<D, T>::forEachArray(f);
-    f(F_E), f(R_E), f(V_E), f(J_P), f(C), f(lame);
+    f(F_E), f(R_E), f(V_E), f(J_P), f(C), f(lame), f(calm_steps);
   }
 };
 

@@ -64,6 +64,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);
+  if (params_.auto_sleep.enabled) particles_.calm_steps.assign(particles_.size(), 0);
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
@@ -97,7 +98,22 @@ void MpmSolver<D, T>::advance(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel,
                         [&]<class Transfer, class Kernel>() { stepWith<Transfer, Kernel>(T(dt)); });
   collectMeasures();
+  if (params_.auto_sleep.enabled) countSleepers();
   if (slabs_.migrate(particles_, this->steps() + 1)) schedule_.resize(particles_.x);
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::countSleepers() {
+  long asleep = 0;
+  for (const PartMeasure& m : part_measures_) asleep += m.asleep;
+  if (slabs_.distributed()) {  // the whole snow's: one more exchange, with auto-sleep only
+    std::vector<double> none;
+    asleep = std::lround(slabs_.maxAndSum(none, double(asleep)));
+  }
+  sleep_tally_.asleep_now = asleep;
+  sleep_tally_.asleep_steps += asleep;
+  sleep_tally_.particle_steps += total_particles_;
+  sleep_tally_.particles = total_particles_;
 }
 
 template <int D, class T>
@@ -140,6 +156,37 @@ void MpmSolver<D, T>::stepWith(T dt) {
 template <int D, class T>
 template <class Transfer, class Kernel>
 Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
+  if (!params_.auto_sleep.enabled) {
+    moveAwakeParticle<Transfer, Kernel>(p, dt, wide);
+    return measure(p, m);
+  }
+  int& calm = particles_.calm_steps[p];
+  const V x = particles_.x[p];
+  if (calm >= params_.auto_sleep.steps) {
+    // Asleep: it scattered its mass and its stress, both unchanged while it sleeps; it has no
+    // velocity to gather and no deformation to update while its stencil rests.
+    if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) {
+      ++m.asleep;
+      return measure(p, m);
+    }
+    calm = 0;  // wakes, and moves this very step
+  }
+  moveAwakeParticle<Transfer, Kernel>(p, dt, wide);
+  const T speed = T(params_.auto_sleep.speed);
+  const bool resting = particles_.v[p].squaredNorm() < speed * speed && !stencilMoves<Kernel>(x);
+  calm = resting ? calm + 1 : 0;
+  if (calm >= params_.auto_sleep.steps) {
+    // Falls asleep at rest: its slow drift and its affine velocity stop feeding the grid's
+    // momentum.
+    particles_.v[p].setZero();
+    particles_.C[p].setZero();
+  }
+  return measure(p, m);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+void MpmSolver<D, T>::moveAwakeParticle(int p, T dt, bool wide) {
   if (wide)  // 8 (gathered first: 7 needs grad v)
     gatherVelocityWide<Transfer, Kernel>(p);
   else
@@ -147,7 +194,42 @@ Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
   updateDeformation<Transfer>(p, dt);  // 7
   collideParticle(p);                  // 9
   advect(p, dt);                       // 10
-  return measure(p, m);
+}
+
+template <int D, class T>
+template <class Kernel>
+bool MpmSolver<D, T>::stencilMoves(const V& x) const {
+  const T speed = T(params_.auto_sleep.speed);
+  const T limit = speed * speed;
+  const Stencil<D, Kernel, T> s(x, inv_h_);
+  const int base = grid_.index(s.base);
+  constexpr int S = Kernel::support;
+  bool moves = false;  // every node read, no early exit: the loop stays branch-free
+  if constexpr (D == 2) {
+    for (int j = 0; j < S; ++j)
+      for (int i = 0; i < S; ++i)
+        moves |= fields_.velocity[base + j * grid_.stride[1] + i].squaredNorm() > limit;
+  } else {
+    for (int k = 0; k < S; ++k)
+      for (int j = 0; j < S; ++j)
+        for (int i = 0; i < S; ++i)
+          moves |=
+              fields_.velocity[base + k * grid_.stride[2] + j * grid_.stride[1] + i].squaredNorm() >
+              limit;
+  }
+  return moves;
+}
+
+template <int D, class T>
+bool MpmSolver<D, T>::touchedByMovingCollider(const V& x) const {
+  if (!colliders_move_) return false;
+  const Vec<D> at = x.template cast<Real>();
+  for (size_t c = 0; c < colliders_.size(); ++c) {
+    const Collider<D>& collider = colliders_[c];
+    const bool moves = !collider.velocity.isZero(0) || !collider.spin.isZero(0);
+    if (moves && mayTouch(static_cast<int>(c), at) && collider.phi(at) < grid_.h) return true;
+  }
+  return false;
 }
 
 template <int D, class T>
@@ -656,6 +738,7 @@ void MpmSolver<D, T>::saveRankState(StateWriter& out) const {
   out.value(finite_);
   out.value(step_when_exceeded_);
   out.value(solves_);
+  out.value(sleep_tally_);
   if (slabs_.distributed()) slabs_.saveState(out);
 }
 
@@ -680,6 +763,7 @@ void MpmSolver<D, T>::loadRankState(StateReader& in) {
   in.value(finite_);
   in.value(step_when_exceeded_);
   in.value(solves_);
+  in.value(sleep_tally_);
   if (slabs_.distributed()) slabs_.loadState(in);
   // Each step writes the grid nodes near the snow and leaves the rest zero, as here.
   fields_.resize(grid_.nodeCount());

@@ -41,6 +41,7 @@ class MpmSolver final : public Solver<D> {
   const Particles<D>& particles() const override;
   void describe(Snapshot& snapshot) const override;
   SolveTally implicitSolves() const override { return solves_; }
+  SleepTally autoSleep() const override { return sleep_tally_; }
   std::vector<RankTraffic> rankTraffic() const override { return slabs_.everyRanksTraffic(); }
 
   const GridGeometry<D>& grid() const { return grid_; }
@@ -49,6 +50,10 @@ class MpmSolver final : public Solver<D> {
   const std::vector<T>& plasticJ() const { return particles_.J_P; }
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
   LameOf<T> lame(int p) const { return particles_.lame[p]; }
+  // Auto-sleep: whether particle p (in the order of particles()) is asleep after the last step.
+  bool asleep(int p) const {
+    return params_.auto_sleep.enabled && particles_.calm_steps[p] >= params_.auto_sleep.steps;
+  }
   const SnowMaterial& material() const { return material_; }
   // The colliders where they were at the start of the last step.
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
@@ -144,14 +149,24 @@ class MpmSolver final : public Solver<D> {
   struct PartMeasure {
     Real speed = 0, signal = 0;
     bool finite = true;
+    long asleep = 0;  // particles that slept through the pass
   };
   // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
   template <class Transfer, class Kernel>
   Real moveParticle(int p, PartMeasure& m, T dt, bool wide);
+  // 8, 7, 9, 10 for a particle awake.
+  template <class Transfer, class Kernel>
+  void moveAwakeParticle(int p, T dt, bool wide);
+  // Auto-sleep: whether a node of the stencil at x moves faster than the sleep speed, and whether
+  // a moving collider is within a cell of x.
+  template <class Kernel>
+  bool stencilMoves(const V& x) const;
+  bool touchedByMovingCollider(const V& x) const;
   // Measures particle p into its part's maxima and returns its energy.
   Real measure(int p, PartMeasure& m) const;
   void measureParticles();  // the speeds and energy of the current state
   void collectMeasures();   // after each particle pass
+  void countSleepers();     // after each step's particle pass, with auto-sleep
 
   MpmParams params_;
   SnowMaterial material_;
@@ -204,6 +219,7 @@ class MpmSolver final : public Solver<D> {
   Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
   bool finite_ = true;       // every position and velocity finite
   Real energy_ = 0;          // kinetic + gravitational (J)
+  SleepTally sleep_tally_;
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
   int total_particles_ = 0;      // of every rank

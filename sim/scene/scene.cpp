@@ -237,6 +237,13 @@ MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
     p.wall_friction = w.number("friction", p.wall_friction, 0, 1e3);
     w.finish();
   }
+  if (const Json* sleep = f.object("auto_sleep", false)) {
+    JsonFields a(*sleep, "mpm.auto_sleep", file);
+    p.auto_sleep.enabled = a.boolean("enabled", true);
+    p.auto_sleep.speed = a.number("speed", p.auto_sleep.speed, 0, 1e3, true);
+    p.auto_sleep.steps = a.integer("steps", p.auto_sleep.steps, 1, 1000000);
+    a.finish();
+  }
   f.finish();
   return p;
 }

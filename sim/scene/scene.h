@@ -63,6 +63,15 @@ enum class MpmPrecision { Double, Float };
 enum class ColliderType { Sticky, Slip, Separating };
 enum class ColliderShape { HalfSpace, Sphere, Box, Drum, Mesh };
 
+// Particles whose surroundings rest skip their gather, their F_E update and their advection
+// (docs/mpm.md): one falls asleep after `steps` steps in a row in which it and every node of its
+// stencil moved slower than `speed`, and wakes when a node of its stencil moves faster.
+struct AutoSleep {
+  bool enabled = false;
+  double speed = 0.02;  // m/s: above the ringing of snow at rest under gravity (docs/mpm.md)
+  int steps = 30;
+};
+
 struct MpmParams {
   MpmTransfer transfer = MpmTransfer::Mls;
   double flip_alpha = 0.95;  // PIC/FLIP blend (paper section 8: 0.95)
@@ -77,6 +86,7 @@ struct MpmParams {
   MpmPrecision precision = MpmPrecision::Double;      // float: explicit integrator only
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
+  AutoSleep auto_sleep;
 };
 
 // A closed triangle mesh file placed in the scene (3D scenes): scaled, rotated, then moved to the

@@ -51,7 +51,11 @@ Json mpmJson(const MpmParams& p) {
       {"cfl", p.cfl},
       {"adaptive_dt", p.adaptive_dt},
       {"initial_volume", p.initial_volume == InitialVolume::Lattice ? "lattice" : "grid_density"},
-      {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}}};
+      {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}},
+      {"auto_sleep",
+       {{"enabled", p.auto_sleep.enabled},
+        {"speed", p.auto_sleep.speed},
+        {"steps", p.auto_sleep.steps}}}};
 }
 
 void writeMesh(const SceneMesh& m, Json& j) {

@@ -116,11 +116,9 @@ long stepsOfRun(const std::string& arguments) {
                               dir.string() + " " + arguments + " 2>/dev/null";
   if (std::system(command.c_str()) != 0) return -1;
   std::ifstream in(dir / "run.json");
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string json = text.str();
-  const auto at = json.find("\"steps\":");
-  return at == std::string::npos ? -2 : std::stol(json.substr(at + 8));
+  // The run's own steps, not a field of the same name in its scene (mpm.auto_sleep.steps).
+  const nlohmann::json run = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  return run.contains("steps") ? run["steps"].get<long>() : -2;
 }
 
 TEST(QualityOption, PicksTheTimeStepAndLetsSetOverrideIt) {

@@ -1,0 +1,178 @@
+// Auto-sleep (mpm.auto_sleep): snow at rest stops gathering, deforming and moving, still holds up
+// what lies on it, wakes where it is hit, survives a checkpoint and gives the same results on any
+// thread count.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "sim/core/errors.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/scene/json_fields.h"
+#include "sim/scene/sampling.h"
+
+using namespace snowsim;
+
+namespace {
+
+// A slab of snow 8 cm deep across a 60 x 40 cell box (cell 1 cm), and a ball of radius 3 cm
+// dropped onto its middle from 25 cm above it, landing at about t = 0.22 s.
+Json pileAndBall(int particles_per_cell = 4) {
+  Json j = Json::parse(R"({
+    "name": "t", "dimension": 2, "solver": "mpm",
+    "grid": {"cells": [60, 40], "cell_size": 0.01},
+    "time": {"dt": 0.001, "duration": 0.5, "fps": 10},
+    "bodies": [{"shape": "box", "center": [0.3, 0.04], "size": [0.56, 0.08]},
+               {"shape": "ball", "center": [0.3, 0.36], "radius": 0.03}],
+    "mpm": {"auto_sleep": {"enabled": true}}
+  })");
+  j["particles_per_cell"] = particles_per_cell;
+  return j;
+}
+
+template <int D = 2>
+MpmSolver<D> makeSolver(const Json& j, int threads = 0) {
+  const Scene scene = parseScene(j, "test.json");
+  return MpmSolver<D>(scene, sampleBodies<D>(scene), threads);
+}
+
+// Steps at the stable step until the solver's clock reaches `until`.
+template <class Solver>
+void runUntil(Solver& s, Real until) {
+  while (s.time() < until - 1e-12) s.step(std::min(s.stableTimeStep(), until - s.time()));
+}
+
+// The share of body's particles asleep among those `where` picks.
+template <class Where>
+double asleepShare(const MpmSolver<2>& s, int body, Where&& where) {
+  const Particles<2>& p = s.particles();
+  int asleep = 0, picked = 0;
+  for (int i = 0; i < p.size(); ++i)
+    if (p.body[i] == body && where(p.x[i])) ++picked, asleep += s.asleep(i);
+  return picked > 0 ? double(asleep) / picked : 0;
+}
+
+Vec<2> centre(const Particles<2>& p, int body) {
+  Vec<2> c = Vec<2>::Zero();
+  int n = 0;
+  for (int i = 0; i < p.size(); ++i)
+    if (p.body[i] == body) c += p.x[i], ++n;
+  return c / n;
+}
+
+TEST(AutoSleep, BlockAtRestFallsAsleepAndStaysPut) {
+  Json j = pileAndBall();
+  j["bodies"].erase(1);
+  auto asleep = makeSolver(j);
+  j["mpm"]["auto_sleep"]["enabled"] = false;
+  auto awake = makeSolver(j);
+  runUntil(asleep, 0.3);
+  runUntil(awake, 0.3);
+  EXPECT_EQ(asleepShare(asleep, 0, [](const Vec<2>&) { return true; }), 1);
+  EXPECT_EQ(asleep.autoSleep().particles, asleep.particles().size());
+  EXPECT_EQ(asleep.autoSleep().asleep_now, asleep.particles().size());
+  // Where the awake block is, within half a millimetre: the awake block rings elastically under
+  // gravity at up to 2 cm/s, about 0.3 mm apart from the sleeping one.
+  const Particles<2>&a = asleep.particles(), &b = awake.particles();
+  Real moved_apart = 0;
+  for (int i = 0; i < a.size(); ++i) moved_apart = std::max(moved_apart, (a.x[i] - b.x[i]).norm());
+  EXPECT_LT(moved_apart, 5e-4);
+  EXPECT_NEAR(centre(a, 0)[1], 0.04, 1e-3);
+  Real fastest = 0;
+  for (const Vec<2>& v : a.v) fastest = std::max(fastest, v.norm());
+  EXPECT_EQ(fastest, 0);  // asleep, it keeps no drift
+}
+
+TEST(AutoSleep, SleepingPileHitByABallWakesWhereHitAndStopsTheBall) {
+  Json j = pileAndBall();
+  auto asleep = makeSolver(j);
+  j["mpm"]["auto_sleep"]["enabled"] = false;
+  auto awake = makeSolver(j);
+  const auto all = [](const Vec<2>&) { return true; };
+  // Before the ball lands the pile sleeps.
+  runUntil(asleep, 0.15);
+  EXPECT_EQ(asleepShare(asleep, 0, all), 1);
+  // The first step that wakes any of the pile wakes it under the ball only, within 6 cm of the
+  // ball's axis (the impact's elastic wave then crosses the pile and wakes what it shakes).
+  while (asleepShare(asleep, 0, all) == 1 && asleep.time() < 0.3)
+    asleep.step(asleep.stableTimeStep());
+  ASSERT_LT(asleepShare(asleep, 0, all), 1) << "the ball never woke the pile";
+  EXPECT_EQ(asleepShare(asleep, 0, [](const Vec<2>& x) { return std::abs(x[0] - 0.3) > 0.06; }), 1);
+  // The sleeping pile stops the ball where the awake one does: the ball's centre within half a
+  // millimetre (measured: 0.2 mm lower), resting on the pile; and the pile asleep again.
+  runUntil(asleep, 0.5);
+  runUntil(awake, 0.5);
+  const Vec<2> on_sleeping = centre(asleep.particles(), 1), on_awake = centre(awake.particles(), 1);
+  EXPECT_NEAR(on_sleeping[1], on_awake[1], 5e-4);
+  EXPECT_NEAR(on_sleeping[0], on_awake[0], 5e-4);
+  EXPECT_GT(on_sleeping[1], 0.08 + 0.02);
+  EXPECT_GT(asleepShare(asleep, 0, all), 0.95);
+}
+
+// The solvers' own checkpoint state, written and read back as `snowsim resume` does.
+TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
+  const Json j = pileAndBall();
+  auto through = makeSolver(j);
+  runUntil(through, 0.2);  // the pile asleep, the ball about to land
+  ASSERT_GT(through.autoSleep().asleep_now, 0);
+  StateWriter saved;
+  through.saveState(saved);
+  auto resumed = makeSolver(j);
+  StateReader reader(saved.bytes(), "test checkpoint");
+  resumed.loadState(reader);
+  reader.finish();
+  runUntil(through, 0.3);  // through the impact: the pile wakes and sleeps again
+  runUntil(resumed, 0.3);
+  ASSERT_EQ(resumed.steps(), through.steps());
+  const Particles<2>&a = through.particles(), &b = resumed.particles();
+  EXPECT_TRUE(a.x == b.x && a.v == b.v && a.id == b.id);
+  EXPECT_TRUE(through.elasticGradient() == resumed.elasticGradient());
+  EXPECT_TRUE(through.plasticJ() == resumed.plasticJ());
+  int same_sleep = 0;
+  for (int i = 0; i < a.size(); ++i) same_sleep += through.asleep(i) == resumed.asleep(i);
+  EXPECT_EQ(same_sleep, a.size());
+  EXPECT_EQ(through.autoSleep().asleep_steps, resumed.autoSleep().asleep_steps);
+  EXPECT_EQ(through.autoSleep().particle_steps, resumed.autoSleep().particle_steps);
+}
+
+// 16 particles per cell: over the 2048 that take the threaded path.
+TEST(AutoSleep, SameResultsOnOneAndTwoThreads) {
+  const Json j = pileAndBall(16);
+  auto one = makeSolver(j, 1), two = makeSolver(j, 2);
+  ASSERT_GT(one.particles().size(), 2048);
+  runUntil(one, 0.23);
+  runUntil(two, 0.23);
+  ASSERT_GT(one.autoSleep().asleep_now, 0);
+  ASSERT_LT(one.autoSleep().asleep_now, one.particles().size());  // the ball has woken some
+  EXPECT_TRUE(one.particles().positionsById() == two.particles().positionsById());
+  EXPECT_EQ(one.autoSleep().asleep_steps, two.autoSleep().asleep_steps);
+}
+
+TEST(AutoSleep, SceneFieldsAreCheckedAndWrittenBack) {
+  const std::string scene = SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"mpm.auto_sleep.speed=0", "mpm.auto_sleep.speed"},
+      {"mpm.auto_sleep.speed=-1", "mpm.auto_sleep.speed"},
+      {"mpm.auto_sleep.steps=0", "mpm.auto_sleep.steps"},
+      {"mpm.auto_sleep.enabled=\"yes\"", "mpm.auto_sleep.enabled"},
+      {"mpm.auto_sleep.delay=3", "mpm.auto_sleep.delay"}};
+  for (const auto& [assignment, field] : bad) {
+    try {
+      loadScene(scene, {assignment});
+      ADD_FAILURE() << assignment << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("snowball_drop.json"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_FALSE(loadScene(scene).mpm.auto_sleep.enabled);  // off unless asked for
+  const Scene on = loadScene(scene, {"mpm.auto_sleep.speed=0.02", "mpm.auto_sleep.steps=7"});
+  EXPECT_TRUE(on.mpm.auto_sleep.enabled);  // the object given turns it on
+  const Scene again = parseScene(sceneToJson(on), "again.json");
+  EXPECT_TRUE(again.mpm.auto_sleep.enabled);
+  EXPECT_EQ(again.mpm.auto_sleep.speed, 0.02);
+  EXPECT_EQ(again.mpm.auto_sleep.steps, 7);
+}
+
+}  // namespace

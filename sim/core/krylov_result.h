@@ -16,13 +16,13 @@ struct KrylovResult {
 // iteration limit, or on a breakdown) leaves its residual above it and the run goes on with that
 // answer, so the count is reported.
 struct SolveTally {
-  long solves = 0, iterations = 0, unconverged = 0;
-  int most_iterations = 0;
+  // All long: no padding, so a checkpoint that stores the tally as bytes holds no unset ones.
+  long solves = 0, iterations = 0, unconverged = 0, most_iterations = 0;
   void add(const KrylovResult& r) {
     ++solves;
     iterations += r.iterations;
     unconverged += r.converged ? 0 : 1;
-    most_iterations = std::max(most_iterations, r.iterations);
+    most_iterations = std::max(most_iterations, long{r.iterations});
   }
 };
 

@@ -142,9 +142,10 @@ TEST(MovingCollider, ConstantAngularVelocityAndTwoKeysAgree) {
     const Collider<2>&paddle_a = a.colliders().back(), &paddle_b = b.colliders().back();
     ASSERT_LT((paddle_a.rotation - paddle_b.rotation).norm(), 1e-15);
     ASSERT_LT((paddle_a.spin - paddle_b.spin).norm(), 1e-15);
-    if (step == 750)
+    if (step == 750) {
       for (int p = 0; p < a.particles().size(); ++p)
         ASSERT_EQ(a.particles().x[p], b.particles().x[p]);
+    }
   }
   Real largest = 0, moved = 0;
   for (int p = 0; p < a.particles().size(); ++p) {

@@ -82,7 +82,10 @@ void ImplicitVelocitySolve<D>::assembleStiffnessBlocks() {
   // u = e_c at node a alone: grad u = e_c g^T, and the particle adds S g to (M A u)_a / (beta dt)
   // with vec(S) = R vec(grad u), so block(r, c) += sum_{k,l} R[r + D k, c + D l] g_k g_l. Serial,
   // in particle order, so the sums are the same for any thread count.
-  stiffness_block_.assign(active_.size(), Mat<D>::Zero());
+  // resize, not assign: grows by doubling like the other per-node buffers, so a step allocates
+  // nothing once the contact area has stopped growing.
+  stiffness_block_.resize(active_.size());
+  std::fill(stiffness_block_.begin(), stiffness_block_.end(), Mat<D>::Zero());
   const int S = stencil_nodes_;
   for (size_t p = 0; p < response_.size(); ++p) {
     const Tangent<D>& R = response_[p];

@@ -1,5 +1,6 @@
 #include "sim/mpm/implicit_solve.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 
 #include "sim/core/stencil.h"
@@ -26,11 +27,25 @@ void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFi
       active_.push_back(k);
       mass_.push_back(fields.mass[k]);
     }
-  volume_ = particles.volume;
-  F_ = F_E;
-  lame_ = lame;
   stress_differential_.resize(particles.size());
+  response_.resize(particles.size());
+  parallelFor(loops_, particles.size(), [&](int p) {
+    // Column j: G = e_j (a unit grad u), dF = dt G F_E, vec(V_p^0 dP(dF) F_E^T).
+    const Mat<D>& F = F_E[p];
+    const Tangent<D> C = fixedCorotatedPiolaTangent<D>(F, lame[p]);
+    for (int j = 0; j < D * D; ++j) {
+      Mat<D> G = Mat<D>::Zero();
+      G(j % D, j / D) = 1;
+      const Mat<D> dF = dt * G * F;
+      Mat<D> dP;
+      Eigen::Map<Eigen::Matrix<Real, D * D, 1>>(dP.data()) =
+          C * Eigen::Map<const Eigen::Matrix<Real, D * D, 1>>(dF.data());
+      const Mat<D> S = particles.volume[p] * dP * F.transpose();
+      response_[p].col(j) = Eigen::Map<const Eigen::Matrix<Real, D * D, 1>>(S.data());
+    }
+  });
   withKernel(params.kernel, [&]<class Kernel>() { prepareWith<Kernel>(grid, particles, params); });
+  assembleStiffnessBlocks();
   const Eigen::Index n = static_cast<Eigen::Index>(active_.size()) * D;
   rhs_.resize(n);
   x_.resize(n);
@@ -63,11 +78,52 @@ void ImplicitVelocitySolve<D>::prepareWith(const GridGeometry<D>& grid,
 }
 
 template <int D>
+void ImplicitVelocitySolve<D>::assembleStiffnessBlocks() {
+  // u = e_c at node a alone: grad u = e_c g^T, and the particle adds S g to (M A u)_a / (beta dt)
+  // with vec(S) = R vec(grad u), so block(r, c) += sum_{k,l} R[r + D k, c + D l] g_k g_l. Serial,
+  // in particle order, so the sums are the same for any thread count.
+  // resize, not assign: grows by doubling like the other per-node buffers, so a step allocates
+  // nothing once the contact area has stopped growing.
+  stiffness_block_.resize(active_.size());
+  std::fill(stiffness_block_.begin(), stiffness_block_.end(), Mat<D>::Zero());
+  const int S = stencil_nodes_;
+  for (size_t p = 0; p < response_.size(); ++p) {
+    const Tangent<D>& R = response_[p];
+    for (int nd = 0; nd < S; ++nd) {
+      const size_t e = p * S + nd;
+      if (stencil_[e] < 0) continue;
+      const Vec<D>& g = gradient_[e];
+      Mat<D>& block = stiffness_block_[stencil_[e]];
+      for (int c = 0; c < D; ++c)
+        for (int l = 0; l < D; ++l)
+          for (int k = 0; k < D; ++k)
+            block.col(c) += (g[k] * g[l]) * R.col(c + D * l).template segment<D>(D * k);
+    }
+  }
+}
+
+template <int D>
+void ImplicitVelocitySolve<D>::invertNodeBlocks(Real beta) {
+  const int active = activeNodes();
+  block_inverse_.resize(active);
+  for (int a = 0; a < active; ++a) {
+    const Mat<D>& P = free_[a];
+    const Mat<D> I = Mat<D>::Identity();
+    const Mat<D> block =
+        P * (mass_[a] * I + beta * dt_ * stiffness_block_[a]) * P + mass_[a] * (I - P);
+    // Symmetrised: the block of a symmetric operator, up to round-off.
+    const Eigen::LLT<Mat<D>> llt(Real(0.5) * (block + block.transpose()));
+    block_inverse_[a] = llt.info() == Eigen::Success ? Mat<D>(llt.solve(I)) : Mat<D>(I / mass_[a]);
+  }
+}
+
+template <int D>
 void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen::VectorXd& y,
                                                  Real beta) const {
-  const int n = static_cast<int>(F_.size());
+  const int n = static_cast<int>(response_.size());
   const int S = stencil_nodes_;
-  // Per particle (parallel, independent): dF_p = dt (sum_i u_i g_ip^T) F_E,p, then V_p^0 dP F^T.
+  // Per particle (parallel, independent): grad u = sum_i u_i g_ip^T, then V_p^0 dP F^T from the
+  // particle's response to it.
   parallelFor(loops_, n, [&](int p) {
     Mat<D> grad_u = Mat<D>::Zero();
     for (int nd = 0; nd < S; ++nd) {
@@ -76,9 +132,8 @@ void ImplicitVelocitySolve<D>::applyMassWeighted(const Eigen::VectorXd& u, Eigen
       grad_u += u.template segment<D>(static_cast<Eigen::Index>(stencil_[e]) * D) *
                 gradient_[e].transpose();
     }
-    const Mat<D> dF = dt_ * grad_u * F_[p];
-    stress_differential_[p] =
-        volume_[p] * fixedCorotatedPiolaDifferential<D>(F_[p], lame_[p], dF) * F_[p].transpose();
+    Eigen::Map<Eigen::Matrix<Real, D * D, 1>>(stress_differential_[p].data()).noalias() =
+        response_[p] * Eigen::Map<const Eigen::Matrix<Real, D * D, 1>>(grad_u.data());
   });
   // y = M u - beta dt df, df_i = -sum_p (V dP F^T)_p g_ip; serial scatter keeps the sum order
   // fixed.
@@ -126,7 +181,8 @@ void ImplicitVelocitySolve<D>::applyConstrained(const Eigen::VectorXd& u, Eigen:
 template <int D>
 KrylovResult ImplicitVelocitySolve<D>::solve(GridFields<D>& fields,
                                              const std::vector<Mat<D>>& node_free, Real beta,
-                                             Real tolerance, int max_iterations) {
+                                             Real tolerance, int max_iterations,
+                                             ImplicitPreconditioner preconditioner) {
   const int active = activeNodes();
   free_.resize(active);
   for (int a = 0; a < active; ++a) free_[a] = node_free[active_[a]];
@@ -145,20 +201,23 @@ KrylovResult ImplicitVelocitySolve<D>::solve(GridFields<D>& fields,
     rhs_.template segment<D>(i) =
         free_[a] * (Mv - rhs_.template segment<D>(i)) + (Mv - free_[a] * Mv);
   }
-  // Preconditioned by the node masses: the constrained operator's diagonal is m on the held
-  // components and m + beta dt^2 K_ii on the free ones, and masses span orders of magnitude
-  // between the snow's inside and its surface. Unpreconditioned, the 3D smash stopped short of
-  // the tolerance at 200 iterations in most steps; adding an estimate of K_ii (at F_E = I)
-  // changed the iteration counts by under 3% (docs/mpm.md).
-  const auto byMass = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+  // Preconditioned per node: the masses span orders of magnitude between the snow's inside and
+  // its surface, and where the snow is stiff the stiffness's diagonal block outweighs the mass
+  // (docs/mpm.md has the iteration counts of each).
+  const bool by_block = preconditioner == ImplicitPreconditioner::NodeBlock;
+  if (by_block) invertNodeBlocks(beta);
+  const auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
     for (int a = 0; a < active; ++a) {
       const Eigen::Index i = static_cast<Eigen::Index>(a) * D;
-      z.template segment<D>(i) = r.template segment<D>(i) / mass_[a];
+      if (by_block)
+        z.template segment<D>(i).noalias() = block_inverse_[a] * r.template segment<D>(i);
+      else
+        z.template segment<D>(i) = r.template segment<D>(i) / mass_[a];
     }
   };
   const KrylovResult result = conjugateResidual(
-      [&](const Eigen::VectorXd& u, Eigen::VectorXd& y) { applyConstrained(u, y, beta); }, byMass,
-      rhs_, x_, tolerance, max_iterations, work_);
+      [&](const Eigen::VectorXd& u, Eigen::VectorXd& y) { applyConstrained(u, y, beta); },
+      precondition, rhs_, x_, tolerance, max_iterations, work_);
   scatter(x_, fields);
   return result;
 }

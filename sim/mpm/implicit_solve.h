@@ -11,16 +11,22 @@
 #include "sim/core/krylov.h"
 #include "sim/core/particles.h"
 #include "sim/mpm/snow_material.h"
+#include "sim/mpm/stress_differential.h"
 #include "sim/parallel/loop_runner.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
 
+// What the Krylov solve is preconditioned by: the node masses, or per node the D x D diagonal block
+// of the constrained operator (mass plus the stiffness that couples the node's own components).
+enum class ImplicitPreconditioner { NodeMass, NodeBlock };
+
 template <int D>
 class ImplicitVelocitySolve {
  public:
   // Per-step setup: active nodes (mass > 0), each particle's stencil nodes and weight gradients,
-  // F_E and Lamé parameters. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
+  // its linearised stress response (from F_E and the Lamé parameters) and the stiffness's
+  // diagonal blocks. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
   // APIC/MLS, the same ones the explicit force and the F_E update use. The per-particle loops of
   // this step run on `loops` (none: on the calling thread).
   void prepare(const GridGeometry<D>& grid, const GridFields<D>& fields,
@@ -33,7 +39,8 @@ class ImplicitVelocitySolve {
   // (collideAndConstrain); the others keep their collided value: the solve runs on
   // P M A P u + (I - P) M u = P (M v* - M A (I - P) v*) + (I - P) M v*, still symmetric.
   KrylovResult solve(GridFields<D>& fields, const std::vector<Mat<D>>& node_free, Real beta,
-                     Real tolerance, int max_iterations);
+                     Real tolerance, int max_iterations,
+                     ImplicitPreconditioner preconditioner = ImplicitPreconditioner::NodeBlock);
 
   // y = M A u = M u - beta dt df(u) over the active nodes (flat, D entries per node), with
   // df_i = -sum_p V_p^0 dP(F_E,p; dF_p) F_E,p^T g_ip and dF_p = dt (sum_i u_i g_ip^T) F_E,p.
@@ -50,6 +57,12 @@ class ImplicitVelocitySolve {
   template <class Kernel>
   void prepareWith(const GridGeometry<D>& grid, const Particles<D>& particles,
                    const MpmParams& params);
+  // Each active node's D x D diagonal block of the operator's stiffness part, over beta dt.
+  void assembleStiffnessBlocks();
+  // z = B^-1 r with B per node: P (m I + beta K_aa) P + (I - P) m, or m I where that is not
+  // positive definite (compressed snow can make K_aa indefinite; the Krylov method needs an SPD
+  // preconditioner).
+  void invertNodeBlocks(Real beta);
 
   Real dt_ = 0;
   LoopRunner* loops_ = nullptr;
@@ -59,11 +72,13 @@ class ImplicitVelocitySolve {
   std::vector<Real> mass_;        // mass of each active node
   std::vector<int> stencil_;      // per particle, stencil_nodes_ active indices (-1: massless)
   std::vector<Vec<D>> gradient_;  // per particle, stencil_nodes_ weight gradients
-  std::vector<Real> volume_;      // V_p^0
-  std::vector<Mat<D>> F_;         // F_E,p
-  std::vector<Lame> lame_;        // hardened Lamé parameters, frozen within the step
+  // Per particle, vec(V_p^0 dP(dF) F_E^T) as a matrix on vec(grad u), dF = dt grad u F_E: the
+  // stress differential linearised once a step (hardening frozen) instead of an SVD an iteration.
+  std::vector<Tangent<D>> response_;
   mutable std::vector<Mat<D>> stress_differential_;  // V_p^0 dP F_E^T per particle
-  std::vector<Mat<D>> free_;  // per active node: projection onto the free components
+  std::vector<Mat<D>> stiffness_block_;  // per active node, d(M A u)_a / du_a - m I, over beta dt
+  std::vector<Mat<D>> block_inverse_;    // per active node, the preconditioner's inverse block
+  std::vector<Mat<D>> free_;             // per active node: projection onto the free components
   ConjugateResidualWork work_;
   Eigen::VectorXd rhs_, x_;
   mutable Eigen::VectorXd projected_;  // P u inside applyConstrained

@@ -21,13 +21,10 @@ Mat<D> cofactor(const Mat<D>& F) {
   return c;
 }
 
-}  // namespace
-
+// dR from the SVD of F, for any number of dF against one decomposition.
 template <int D>
-Mat<D> polarRotationDifferential(const Mat<D>& F, const Mat<D>& dF) {
-  Mat<D> U, V;
-  Vec<D> sigma;
-  signedSvd<D>(F, U, sigma, V);
+Mat<D> polarRotationDifferentialFromSvd(const Mat<D>& U, const Vec<D>& sigma, const Mat<D>& V,
+                                        const Mat<D>& dF) {
   // R^T dF - dF^T R in the V basis: V^T (R^T dF - dF^T R) V = U^T dF V - V^T dF^T U.
   const Mat<D> M = U.transpose() * dF * V;
   const Mat<D> K = M - M.transpose();
@@ -41,6 +38,16 @@ Mat<D> polarRotationDifferential(const Mat<D>& F, const Mat<D>& dF) {
     }
   // dR = R (V W' V^T) = U W' V^T.
   return U * W * V.transpose();
+}
+
+}  // namespace
+
+template <int D>
+Mat<D> polarRotationDifferential(const Mat<D>& F, const Mat<D>& dF) {
+  Mat<D> U, V;
+  Vec<D> sigma;
+  signedSvd<D>(F, U, sigma, V);
+  return polarRotationDifferentialFromSvd<D>(U, sigma, V, dF);
 }
 
 template <int D>
@@ -58,14 +65,44 @@ Mat<D> cofactorDifferential(const Mat<D>& F, const Mat<D>& dF) {
   }
 }
 
+namespace {
+
+// F decomposed once for any number of differentials.
+template <int D>
+struct Decomposed {
+  explicit Decomposed(const Mat<D>& F_) : F(F_), J(F_.determinant()), JFinvT(cofactor<D>(F_)) {
+    signedSvd<D>(F, U, sigma, V);
+  }
+  // dP = 2 mu (dF - dR) + lambda (J F^{-T} : dF) J F^{-T} + lambda (J - 1) d(J F^{-T}).
+  Mat<D> piolaDifferential(const Lame& lame, const Mat<D>& dF) const {
+    return 2 * lame.mu * (dF - polarRotationDifferentialFromSvd<D>(U, sigma, V, dF)) +
+           lame.lambda * JFinvT.cwiseProduct(dF).sum() * JFinvT +
+           lame.lambda * (J - 1) * cofactorDifferential<D>(F, dF);
+  }
+  const Mat<D>& F;
+  Real J;
+  Mat<D> JFinvT, U, V;
+  Vec<D> sigma;
+};
+
+}  // namespace
+
 template <int D>
 Mat<D> fixedCorotatedPiolaDifferential(const Mat<D>& F, const Lame& lame, const Mat<D>& dF) {
-  const Real J = F.determinant();
-  const Mat<D> JFinvT = cofactor<D>(F);
-  const Mat<D> dR = polarRotationDifferential<D>(F, dF);
-  // dJ = J F^{-T} : dF.
-  return 2 * lame.mu * (dF - dR) + lame.lambda * JFinvT.cwiseProduct(dF).sum() * JFinvT +
-         lame.lambda * (J - 1) * cofactorDifferential<D>(F, dF);
+  return Decomposed<D>(F).piolaDifferential(lame, dF);
+}
+
+template <int D>
+Tangent<D> fixedCorotatedPiolaTangent(const Mat<D>& F, const Lame& lame) {
+  const Decomposed<D> decomposed(F);
+  Tangent<D> C;
+  for (int j = 0; j < D * D; ++j) {
+    Mat<D> dF = Mat<D>::Zero();
+    dF(j % D, j / D) = 1;  // column-major, as Eigen::Map reads a Mat<D>
+    const Mat<D> dP = decomposed.piolaDifferential(lame, dF);
+    C.col(j) = Eigen::Map<const Eigen::Matrix<Real, D * D, 1>>(dP.data());
+  }
+  return C;
 }
 
 template Mat<2> polarRotationDifferential<2>(const Mat<2>&, const Mat<2>&);
@@ -74,5 +111,7 @@ template Mat<2> cofactorDifferential<2>(const Mat<2>&, const Mat<2>&);
 template Mat<3> cofactorDifferential<3>(const Mat<3>&, const Mat<3>&);
 template Mat<2> fixedCorotatedPiolaDifferential<2>(const Mat<2>&, const Lame&, const Mat<2>&);
 template Mat<3> fixedCorotatedPiolaDifferential<3>(const Mat<3>&, const Lame&, const Mat<3>&);
+template Tangent<2> fixedCorotatedPiolaTangent<2>(const Mat<2>&, const Lame&);
+template Tangent<3> fixedCorotatedPiolaTangent<3>(const Mat<3>&, const Lame&);
 
 }  // namespace snowsim

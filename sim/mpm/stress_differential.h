@@ -22,4 +22,11 @@ Mat<D> cofactorDifferential(const Mat<D>& F, const Mat<D>& dF);
 template <int D>
 Mat<D> fixedCorotatedPiolaDifferential(const Mat<D>& F, const Lame& lame, const Mat<D>& dF);
 
+// The same differential as a matrix on column-major vec(dF): vec(dP) = C vec(dF), one SVD for all
+// D^2 columns. The semi-implicit solve forms it once a step instead of once an iteration.
+template <int D>
+using Tangent = Eigen::Matrix<Real, D * D, D * D>;
+template <int D>
+Tangent<D> fixedCorotatedPiolaTangent(const Mat<D>& F, const Lame& lame);
+
 }  // namespace snowsim

@@ -231,7 +231,8 @@ class SlabDecomposition {
   template <class T>
   static std::vector<T> fromBytes(const std::string& bytes) {
     std::vector<T> values(bytes.size() / sizeof(T));
-    std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
+    // An empty vector's data() may be null, which memcpy must not get even for 0 bytes.
+    if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
     return values;
   }
   bool contains(const NodeBox<D>& box, int k) const {

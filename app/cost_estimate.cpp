@@ -49,7 +49,13 @@ CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& s
     n += std::snprintf(grid + n, sizeof grid - n, " x %d", scene.cells[a]);
   std::snprintf(grid + n, sizeof grid - n, " cells of %g m", scene.cell_size);
   grid_ = grid;
-  particle_steps_ = double(particles_) * std::ceil(duration_ / initial_step_ - 1e-9);
+  particle_steps_ = double(particles_) * stepCount();
+}
+
+double CostEstimate::stepCount() const {
+  // A duration a round-off above a whole number of steps takes no extra step; zero takes none
+  // (not the -0 that ceil gives).
+  return std::max(0.0, std::ceil(duration_ / initial_step_ - 1e-9));
 }
 
 std::string CostEstimate::before() const {
@@ -58,7 +64,7 @@ std::string CostEstimate::before() const {
                 "%s: %s particles, %s; %g s simulated at a first step of %.2g s: about %s "
                 "steps, %s particle-steps",
                 name_.c_str(), roughCount(particles_).c_str(), grid_.c_str(), duration_,
-                initial_step_, roughCount(std::ceil(duration_ / initial_step_ - 1e-9)).c_str(),
+                initial_step_, roughCount(stepCount()).c_str(),
                 roughCount(particle_steps_).c_str());
   return text;
 }

@@ -30,6 +30,7 @@ class CostEstimate {
   std::string afterStep(const Simulation& simulation);
 
  private:
+  double stepCount() const;  // of the duration at the first step
   std::string name_;
   std::string grid_;  // "10 x 12 cells of 0.01 m"
   double duration_;

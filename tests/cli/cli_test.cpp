@@ -225,6 +225,13 @@ TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
       << e.output;
   EXPECT_EQ(e.output.find("frame "), std::string::npos) << e.output;
   EXPECT_FALSE(fs::exists(none));
+
+  // A run of no duration (a scene's first frame only) takes no step, not "-0".
+  const Result zero = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
+                                 " --estimate --set time.duration=0");
+  ASSERT_EQ(zero.code, 0) << zero.output;
+  EXPECT_NE(zero.output.find("about 0 steps, 0 particle-steps"), std::string::npos)
+      << zero.output;
 }
 
 // run.json says where the wall time went: the solver's stages and the main thread's, each a

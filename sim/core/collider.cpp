@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace snowsim {
 
@@ -54,6 +55,24 @@ Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<
     }
   }
   return free;
+}
+
+template <int D>
+Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin) {
+  constexpr Real unbounded = std::numeric_limits<Real>::infinity();
+  Eigen::AlignedBox<Real, D> box(Vec<D>::Constant(-unbounded), Vec<D>::Constant(unbounded));
+  if (collider.shape != ColliderShape::Sphere && collider.shape != ColliderShape::Box) return box;
+  Vec<D> extent = Vec<D>::Constant(unbounded);  // half extents in the collider's frame
+  for (int a = 0; a < collider.shape_dims; ++a)
+    extent[a] = collider.shape == ColliderShape::Sphere ? collider.radius : collider.half_size[a];
+  for (int i = 0; i < D; ++i) {
+    Real half = 0;  // of the turned local box along world axis i (0 times unbounded is 0)
+    for (int j = 0; j < D; ++j)
+      if (collider.rotation(i, j) != 0) half += std::abs(collider.rotation(i, j)) * extent[j];
+    box.min()[i] = collider.position[i] - half - margin;
+    box.max()[i] = collider.position[i] + half + margin;
+  }
+  return box;
 }
 
 template <int D>
@@ -231,6 +250,8 @@ std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, dou
   return colliders;
 }
 
+template Eigen::AlignedBox<Real, 2> boundingBox<2>(const Collider<2>&, Real);
+template Eigen::AlignedBox<Real, 3> boundingBox<3>(const Collider<3>&, Real);
 template Mat<2> collideAndConstrain<2>(const std::vector<Collider<2>>&, const Vec<2>&, Vec<2>&);
 template Mat<3> collideAndConstrain<3>(const std::vector<Collider<3>>&, const Vec<3>&, Vec<3>&);
 template Vec<2> collideVelocity<2>(const Vec<2>&, const Vec<2>&, const Vec<2>&, ColliderType, Real);

@@ -62,6 +62,12 @@ struct Collider {
   void placeAt(Real time);
 };
 
+// The world-axis box that holds every point where the collider's phi <= 0, grown by margin on
+// each side: a sphere's or a box's, turned with the collider; unbounded along every axis for a
+// half space, a drum or a mesh, and along the axes a 2D shape is extruded over.
+template <int D>
+Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin);
+
 // Applies every collider to the grid velocity v at node x (as Collider::collide does) and returns
 // the projection onto the velocity components the collisions left free, for a semi-implicit solve
 // that must hold the collided components (Stomakhin et al. 2013, section 9: collisions on v*

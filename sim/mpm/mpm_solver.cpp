@@ -337,6 +337,9 @@ void MpmSolver<D, T>::placeScreens() {
     screen.normal = collider.rotation * collider.normal;
     screen.offset = screen.normal.dot(collider.position);
     screen.margin = margin * (1 + collider.position.norm());
+    const Eigen::AlignedBox<Real, D> bounds = boundingBox(collider, screen.margin);
+    screen.lo = bounds.min();
+    screen.hi = bounds.max();
   }
   clear_lo_.setConstant(-std::numeric_limits<Real>::infinity());
   clear_hi_.setConstant(std::numeric_limits<Real>::infinity());

@@ -180,18 +180,21 @@ class MpmSolver final : public Solver<D> {
   std::vector<Collider<D>> colliders_;
   // Per collider, a cheap test that passes over it for a point well clear of it (Collider::phi
   // is a call and a rotation), set with the colliders' poses: a half space's plane in world
-  // coordinates, with a margin far beyond the round-off between the two ways of computing the
-  // distance, so a point it passes over is one phi puts outside. Other shapes are always tested.
+  // coordinates, a sphere's or a box's world-axis bounding box, each with a margin far beyond the
+  // round-off between the two ways of computing the distance, so a point it passes over is one
+  // phi puts outside. Drums and meshes are always tested (their box spans every axis).
   struct ColliderScreen {
     Vec<D> normal = Vec<D>::Zero();
     Real offset = 0, margin = 0;
     bool half_space = false;
+    Vec<D> lo, hi;  // bounding box, margin included
   };
   std::vector<ColliderScreen> screens_;
   void placeScreens();
   bool mayTouch(int c, const Vec<D>& x) const {
     const ColliderScreen& s = screens_[c];
-    return !s.half_space || s.normal.dot(x) - s.offset <= s.margin;
+    if (s.half_space) return s.normal.dot(x) - s.offset <= s.margin;
+    return (x.array() >= s.lo.array()).all() && (x.array() <= s.hi.array()).all();
   }
   // Most particles are well inside the domain: a box test clears them of every axis-aligned half
   // space (the domain walls) at once, with the screens' margins, so only the colliders the box

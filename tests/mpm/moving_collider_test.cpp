@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
+#include <random>
 
 #include "sim/core/collider.h"
 #include "sim/core/rigid_motion.h"
@@ -67,6 +69,58 @@ TEST(MovingCollider, SurfaceVelocityOfARotatingColliderIsOmegaCrossR) {
   flat.placeAt(0);
   EXPECT_NEAR((flat.surfaceVelocity(Vec<2>(0.5, 0.5)) - Vec<2>(0.1 - kPi / 2 * 0.1, 0)).norm(), 0,
               1e-15);
+}
+
+// The solver tests a particle against a sphere or a box only inside its bounding box: every point
+// the collider holds (phi <= 0) must lie in it, turned or not, and an unturned box's is the box.
+TEST(MovingCollider, ABoundingBoxHoldsEveryPointItsColliderHolds) {
+  std::mt19937 random(3);
+  std::uniform_real_distribution<double> offset(-0.6, 0.6);
+  const Real margin = 1e-12;  // the round-off of phi at the surface, far below
+  for (const ColliderShape shape : {ColliderShape::Sphere, ColliderShape::Box})
+    for (const int shape_dims : {2, 3})
+      for (int turn = 0; turn < 5; ++turn) {
+        Collider<3> c;
+        c.shape = shape;
+        c.shape_dims = shape_dims;  // 2: extruded along local z, turned in its plane
+        c.position = Vec<3>(0.1, -0.05, 0.2);
+        c.radius = 0.3;
+        c.half_size = Vec<3>(0.3, 0.1, 0.2);
+        const Vec<3> axis = shape_dims == 2 ? Vec<3>::UnitZ() : Vec<3>(1, 2, 3).normalized();
+        c.rotation = Eigen::AngleAxisd(0.7 * turn, axis).toRotationMatrix();
+        const Eigen::AlignedBox<Real, 3> box = boundingBox(c, margin);
+        int held = 0;
+        for (int k = 0; k < 20000; ++k) {
+          const Vec<3> x = c.position + Vec<3>(offset(random), offset(random), offset(random));
+          if (c.phi(x) > 0) continue;
+          ++held;
+          EXPECT_TRUE(box.contains(x))
+              << x.transpose() << " shape " << int(shape) << " turn " << turn;
+        }
+        EXPECT_GT(held, 500);
+      }
+
+  Collider<3> box;
+  box.shape = ColliderShape::Box;
+  box.position = Vec<3>(0.5, 0.4, 0.3);
+  box.half_size = Vec<3>(0.05, 0.2, 0.1);
+  const Eigen::AlignedBox<Real, 3> tight = boundingBox(box, 1e-9);
+  EXPECT_LT((tight.min() - Vec<3>(0.45 - 1e-9, 0.2 - 1e-9, 0.2 - 1e-9)).norm(), 1e-15);
+  EXPECT_LT((tight.max() - Vec<3>(0.55 + 1e-9, 0.6 + 1e-9, 0.4 + 1e-9)).norm(), 1e-15);
+  constexpr Real unbounded = std::numeric_limits<Real>::infinity();
+  box.shape_dims = 2;
+  EXPECT_EQ(boundingBox(box, 0).max().z(), unbounded) << "extruded along z";
+  EXPECT_EQ(boundingBox(box, 0).max().x(), 0.55);
+  for (const ColliderShape unboundedShape : {ColliderShape::HalfSpace, ColliderShape::Drum}) {
+    box.shape = unboundedShape;
+    EXPECT_EQ(boundingBox(box, 0).min(), Vec<3>::Constant(-unbounded));
+  }
+  Collider<2> disc;
+  disc.shape = ColliderShape::Sphere;
+  disc.position = Vec<2>(0.25, 0.5);
+  disc.radius = 0.125;
+  EXPECT_EQ(boundingBox(disc, 0).min(), Vec<2>(0.125, 0.375));
+  EXPECT_EQ(boundingBox(disc, 0).max(), Vec<2>(0.375, 0.625));
 }
 
 TEST(MovingCollider, SurfaceVelocityIsTheRateOfTheMovingSurface) {

@@ -25,7 +25,8 @@ class Progress {
   // A line of its own (an estimate, a warning), kept apart from the redrawn progress line.
   void note(const std::string& text);
 
-  // "frame 3/50  t = 0.060 / 1.000 s  1234 steps, 5210 a second  dt 1.2e-04 s  ETA 12 s"
+  // "frame 3/50  t = 0.060 / 1.000 s  1234 steps, 5210 a second  dt 1.2e-04 s  ETA 12 s", with
+  // "  62% asleep" before the ETA when auto-sleep is on.
   std::string line(int frame, const Simulation& simulation);
 
  private:

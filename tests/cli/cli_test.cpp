@@ -230,8 +230,7 @@ TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
   const Result zero = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
                                  " --estimate --set time.duration=0");
   ASSERT_EQ(zero.code, 0) << zero.output;
-  EXPECT_NE(zero.output.find("about 0 steps, 0 particle-steps"), std::string::npos)
-      << zero.output;
+  EXPECT_NE(zero.output.find("about 0 steps, 0 particle-steps"), std::string::npos) << zero.output;
 }
 
 // run.json says where the wall time went: the solver's stages and the main thread's, each a
@@ -462,6 +461,20 @@ TEST(Cli, OffATerminalEachFrameGetsAProgressLine) {
   EXPECT_NE(r.output.find("frame 2/2  t = 0.040 / 0.040 s  40 steps"), std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find('\r'), std::string::npos) << "no terminal redraws in a log";
+  EXPECT_EQ(r.output.find("asleep"), std::string::npos) << r.output;
+
+  // With auto-sleep, the share of the particles asleep: snow lying on the ground falls asleep.
+  const Result sleeping = runSnowsim(
+      "run " + scene("mpm_reference") + " -o " + out.string() +
+      " --overwrite --set time.duration=0.6 --set time.fps=5 --set mpm.auto_sleep.enabled=true "
+      "--no-png --no-mp4 --no-ply");
+  ASSERT_EQ(sleeping.code, 0) << sleeping.output;
+  EXPECT_NE(sleeping.output.find("frame 1/3  t = 0.200 / 0.600 s"), std::string::npos)
+      << sleeping.output;
+  const std::regex asleep(R"(frame 3/3 .* dt [0-9.e+-]+ s  ([0-9]+)% asleep)");
+  std::smatch share;
+  ASSERT_TRUE(std::regex_search(sleeping.output, share, asleep)) << sleeping.output;
+  EXPECT_GT(std::stoi(share[1]), 0) << sleeping.output;
 }
 
 // run.json gives the step sizes the policy chose: one fixed step for the report's method, a range

@@ -62,6 +62,11 @@ Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin)
   constexpr Real unbounded = std::numeric_limits<Real>::infinity();
   Eigen::AlignedBox<Real, D> box(Vec<D>::Constant(-unbounded), Vec<D>::Constant(unbounded));
   if (collider.shape != ColliderShape::Sphere && collider.shape != ColliderShape::Box) return box;
+  if (collider.shape == ColliderShape::Sphere && collider.shape_dims == D) {  // turns into itself
+    box.min() = collider.position.array() - collider.radius - margin;
+    box.max() = collider.position.array() + collider.radius + margin;
+    return box;
+  }
   Vec<D> extent = Vec<D>::Constant(unbounded);  // half extents in the collider's frame
   for (int a = 0; a < collider.shape_dims; ++a)
     extent[a] = collider.shape == ColliderShape::Sphere ? collider.radius : collider.half_size[a];

@@ -194,7 +194,8 @@ class MpmSolver final : public Solver<D> {
   bool mayTouch(int c, const Vec<D>& x) const {
     const ColliderScreen& s = screens_[c];
     if (s.half_space) return s.normal.dot(x) - s.offset <= s.margin;
-    return (x.array() >= s.lo.array()).all() && (x.array() <= s.hi.array()).all();
+    // Written so that a NaN position passes, and meets phi as it did before the screen.
+    return !((x.array() < s.lo.array()).any() || (x.array() > s.hi.array()).any());
   }
   // Most particles are well inside the domain: a box test clears them of every axis-aligned half
   // space (the domain walls) at once, with the screens' margins, so only the colliders the box

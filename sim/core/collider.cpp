@@ -61,21 +61,33 @@ template <int D>
 Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin) {
   constexpr Real unbounded = std::numeric_limits<Real>::infinity();
   Eigen::AlignedBox<Real, D> box(Vec<D>::Constant(-unbounded), Vec<D>::Constant(unbounded));
-  if (collider.shape != ColliderShape::Sphere && collider.shape != ColliderShape::Box) return box;
   if (collider.shape == ColliderShape::Sphere && collider.shape_dims == D) {  // turns into itself
     box.min() = collider.position.array() - collider.radius - margin;
     box.max() = collider.position.array() + collider.radius + margin;
     return box;
   }
-  Vec<D> extent = Vec<D>::Constant(unbounded);  // half extents in the collider's frame
-  for (int a = 0; a < collider.shape_dims; ++a)
-    extent[a] = collider.shape == ColliderShape::Sphere ? collider.radius : collider.half_size[a];
+  // The box in the collider's frame: its centre and half extents.
+  Vec<D> centre = Vec<D>::Zero(), extent = Vec<D>::Constant(unbounded);
+  if (collider.shape == ColliderShape::Sphere || collider.shape == ColliderShape::Box) {
+    for (int a = 0; a < collider.shape_dims; ++a)
+      extent[a] = collider.shape == ColliderShape::Sphere ? collider.radius : collider.half_size[a];
+  } else if (collider.shape == ColliderShape::Mesh && D == 3) {
+    const std::array<double, 3> lower = collider.level_set->solidLower();
+    const std::array<double, 3> upper = collider.level_set->solidUpper();
+    for (int a = 0; a < D; ++a) {
+      centre[a] = 0.5 * (lower[a] + upper[a]);
+      extent[a] = 0.5 * (upper[a] - lower[a]);
+    }
+  } else {
+    return box;  // a half space, a drum
+  }
+  const Vec<D> world_centre = collider.position + collider.rotation * centre;
   for (int i = 0; i < D; ++i) {
     Real half = 0;  // of the turned local box along world axis i (0 times unbounded is 0)
     for (int j = 0; j < D; ++j)
       if (collider.rotation(i, j) != 0) half += std::abs(collider.rotation(i, j)) * extent[j];
-    box.min()[i] = collider.position[i] - half - margin;
-    box.max()[i] = collider.position[i] + half + margin;
+    box.min()[i] = world_centre[i] - half - margin;
+    box.max()[i] = world_centre[i] + half + margin;
   }
   return box;
 }

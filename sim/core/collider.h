@@ -63,8 +63,8 @@ struct Collider {
 };
 
 // The world-axis box that holds every point where the collider's phi <= 0, grown by margin on
-// each side: a sphere's or a box's, turned with the collider; unbounded along every axis for a
-// half space, a drum or a mesh, and along the axes a 2D shape is extruded over.
+// each side: a sphere's, a box's or a mesh's level set's, turned with the collider; unbounded
+// along every axis for a half space or a drum, and along the axes a 2D shape is extruded over.
 template <int D>
 Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin);
 

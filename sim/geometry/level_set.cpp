@@ -53,6 +53,26 @@ LevelSet::LevelSet(const TriangleMesh& mesh, double voxel_size, double margin) {
     for (int j = 0; j < dims_[1]; ++j)
       for (int i = 0; i < dims_[0]; ++i)
         values_[n++] = accessor.getValue(openvdb::Coord(first[0] + i, first[1] + j, first[2] + k));
+  // Beyond the box phi is a face's value plus the distance to it (phi below).
+  float lowest = 0;
+  for (int k = 0; k < dims_[2]; ++k)
+    for (int j = 0; j < dims_[1]; ++j)
+      for (int i = 0; i < dims_[0]; ++i) {
+        const bool on_face = i == 0 || j == 0 || k == 0 || i == dims_[0] - 1 ||
+                             j == dims_[1] - 1 || k == dims_[2] - 1;
+        if (on_face) lowest = std::min(lowest, at(i, j, k));
+      }
+  face_reach_ = -double(lowest);
+}
+
+std::array<double, 3> LevelSet::solidLower() const {
+  return {origin_[0] - face_reach_, origin_[1] - face_reach_, origin_[2] - face_reach_};
+}
+
+std::array<double, 3> LevelSet::solidUpper() const {
+  std::array<double, 3> upper;
+  for (int a = 0; a < 3; ++a) upper[a] = origin_[a] + (dims_[a] - 1) * voxel_ + face_reach_;
+  return upper;
 }
 
 LevelSet::Position LevelSet::locate(const std::array<double, 3>& x) const {

@@ -25,6 +25,10 @@ class LevelSet {
   std::array<double, 3> gradient(const std::array<double, 3>& x) const;
 
   double voxelSize() const { return voxel_; }
+  // Corners of the box outside which phi > 0 (m): the voxels' box, grown by how far below zero a
+  // value on its faces goes (by nothing for a closed mesh, whose faces lie outside it).
+  std::array<double, 3> solidLower() const;
+  std::array<double, 3> solidUpper() const;
 
  private:
   float at(int i, int j, int k) const {
@@ -40,6 +44,7 @@ class LevelSet {
   double voxel_ = 0;
   std::array<int, 3> dims_{};
   std::vector<float> values_;  // x fastest
+  double face_reach_ = 0;      // -(the lowest value on the box's faces), at least 0
 };
 
 }  // namespace snowsim

@@ -180,9 +180,9 @@ class MpmSolver final : public Solver<D> {
   std::vector<Collider<D>> colliders_;
   // Per collider, a cheap test that passes over it for a point well clear of it (Collider::phi
   // is a call and a rotation), set with the colliders' poses: a half space's plane in world
-  // coordinates, a sphere's or a box's world-axis bounding box, each with a margin far beyond the
-  // round-off between the two ways of computing the distance, so a point it passes over is one
-  // phi puts outside. Drums and meshes are always tested (their box spans every axis).
+  // coordinates, a sphere's, a box's or a mesh's world-axis bounding box, each with a margin far
+  // beyond the round-off between the two ways of computing the distance, so a point it passes
+  // over is one phi puts outside. Drums are always tested (their box spans every axis).
   struct ColliderScreen {
     Vec<D> normal = Vec<D>::Zero();
     Real offset = 0, margin = 0;

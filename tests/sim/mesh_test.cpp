@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <random>
 #include <string>
 
 #include "sim/core/collider.h"
@@ -154,6 +156,35 @@ TEST(LevelSet, IsTheSignedDistanceToTheCube) {
   EXPECT_NEAR(n[1], 0, 0.05);
   const auto down = phi.gradient({0.01, -0.051, 0.02});
   EXPECT_NEAR(down[1], -1, 0.05);
+}
+
+// The solver screens a mesh collider by its level set's box: every point a turned torus holds
+// (phi <= 0) lies in its bounding box, and the solid's box is the voxels' for a closed mesh.
+TEST(LevelSet, AMeshColliderLiesInsideItsBoundingBox) {
+  const TriangleMesh torus = placed(loadTriangleMesh(kMeshes + "torus.stl"), {{0, 0, 0}, {}, 0.1});
+  Collider<3> c;
+  c.shape = ColliderShape::Mesh;
+  c.level_set = std::make_shared<const LevelSet>(torus, 0.01, 0.02);
+  c.position = Vec<3>(0.4, 0.3, 0.2);
+  c.rotation = Eigen::AngleAxisd(0.6, Vec<3>(1, 2, 3).normalized()).toRotationMatrix();
+  const auto [lo, hi] = torus.bounds();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LE(c.level_set->solidLower()[a], lo[a] - 0.02 + 1e-12);
+    EXPECT_GT(c.level_set->solidLower()[a], lo[a] - 0.02 - 0.01 - 1e-12) << "one voxel at most";
+    EXPECT_GE(c.level_set->solidUpper()[a], hi[a] + 0.02 - 1e-12);
+  }
+  const Eigen::AlignedBox<Real, 3> box = boundingBox(c, 1e-12);
+  std::mt19937 random(4);
+  std::uniform_real_distribution<double> offset(-0.15, 0.15);
+  int held = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Vec<3> x = c.position + Vec<3>(offset(random), offset(random), offset(random));
+    if (c.phi(x) > 0) continue;
+    ++held;
+    EXPECT_TRUE(box.contains(x)) << x.transpose();
+  }
+  EXPECT_GT(held, 100);
+  EXPECT_LT(box.volume(), 0.1) << "bounded, a little more than the torus";
 }
 
 // A filled sphere has volume x ppc / h^3 particles (to 3%: the lattice's staircase at the surface

@@ -58,8 +58,8 @@ LevelSet::LevelSet(const TriangleMesh& mesh, double voxel_size, double margin) {
   for (int k = 0; k < dims_[2]; ++k)
     for (int j = 0; j < dims_[1]; ++j)
       for (int i = 0; i < dims_[0]; ++i) {
-        const bool on_face = i == 0 || j == 0 || k == 0 || i == dims_[0] - 1 ||
-                             j == dims_[1] - 1 || k == dims_[2] - 1;
+        const bool on_face = i == 0 || j == 0 || k == 0 || i == dims_[0] - 1 || j == dims_[1] - 1 ||
+                             k == dims_[2] - 1;
         if (on_face) lowest = std::min(lowest, at(i, j, k));
       }
   face_reach_ = -double(lowest);

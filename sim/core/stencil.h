@@ -82,15 +82,20 @@ struct Lanes4<float> {
   typedef float type __attribute__((vector_size(16), aligned(4), may_alias));
 };
 
-// Whether the processor runs AVX2, where the solvers call the transfers compiled for it (the
-// four-lane loops of TensorStencil in one register each). Found at the first call; tests set it to
-// compare both builds of the transfers.
-inline bool& wideVectors() {
-  static bool wide = [] {
+// The widest vector instructions the transfers are compiled for that the processor runs: the
+// solvers call that build of the transfers (the four-lane loops of TensorStencil in one register
+// each; AVX-512's 32 registers keep the 3D transfers' sums out of memory). Found at the first call;
+// tests set it to compare the builds.
+enum class VectorIsa { baseline, avx2, avx512 };
+
+inline VectorIsa& vectorIsa() {
+  static VectorIsa isa = [] {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl"))
+      return VectorIsa::avx512;
+    return __builtin_cpu_supports("avx2") ? VectorIsa::avx2 : VectorIsa::baseline;
   }();
-  return wide;
+  return isa;
 }
 
 // Tensor-product transfers for APIC and MLS-MPM. A weight is a product over axes,

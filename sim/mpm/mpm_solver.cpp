@@ -120,18 +120,14 @@ template <int D, class T>
 template <class Transfer, class Kernel>
 void MpmSolver<D, T>::stepWith(T dt) {
   const bool semi_implicit = semiImplicit();
-  const bool wide = wideVectors();
+  const VectorIsa isa = vectorIsa();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
   // stages each meet on their own; the explicit stages share the team's threads, but for the
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !slabs_.distributed(), [&] {
     // 1, 3: mass, momentum and forces to the grid.
-    schedule_.scatter([&](int p, PartialGrid& g) {
-      if (wide)
-        scatterParticleWide<Transfer, Kernel>(p, g, dt);
-      else
-        scatterParticle<Transfer, Kernel>(p, g, dt);
-    });
+    schedule_.scatter(
+        [&](int p, PartialGrid& g) { scatterParticleOn<Transfer, Kernel>(isa, p, g, dt); });
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     const auto updateNode = [&](int k) {
       velocityFromMomentum<Transfer>(k);
@@ -149,15 +145,15 @@ void MpmSolver<D, T>::stepWith(T dt) {
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
     schedule_.passOverParticles(
         "move particles", particles_.x, part_measures_,
-        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, wide); });
+        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, isa); });
   });
 }
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
+Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, VectorIsa isa) {
   if (!params_.auto_sleep.enabled) {
-    moveAwakeParticle<Transfer, Kernel>(p, dt, wide);
+    moveAwakeParticle<Transfer, Kernel>(p, dt, isa);
     return measure(p, m);
   }
   int& calm = particles_.calm_steps[p];
@@ -171,7 +167,7 @@ Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
     }
     calm = 0;  // wakes, and moves this very step
   }
-  moveAwakeParticle<Transfer, Kernel>(p, dt, wide);
+  moveAwakeParticle<Transfer, Kernel>(p, dt, isa);
   const T speed = T(params_.auto_sleep.speed);
   const bool resting = particles_.v[p].squaredNorm() < speed * speed && !stencilMoves<Kernel>(x);
   calm = resting ? calm + 1 : 0;
@@ -186,14 +182,11 @@ Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, bool wide) {
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-void MpmSolver<D, T>::moveAwakeParticle(int p, T dt, bool wide) {
-  if (wide)  // 8 (gathered first: 7 needs grad v)
-    gatherVelocityWide<Transfer, Kernel>(p);
-  else
-    gatherVelocity<Transfer, Kernel>(p);
-  updateDeformation<Transfer>(p, dt);  // 7
-  collideParticle(p);                  // 9
-  advect(p, dt);                       // 10
+void MpmSolver<D, T>::moveAwakeParticle(int p, T dt, VectorIsa isa) {
+  gatherVelocityOn<Transfer, Kernel>(isa, p);  // 8 (gathered first: 7 needs grad v)
+  updateDeformation<Transfer>(p, dt);          // 7
+  collideParticle(p);                          // 9
+  advect(p, dt);                               // 10
 }
 
 template <int D, class T>
@@ -234,8 +227,27 @@ bool MpmSolver<D, T>::touchedByMovingCollider(const V& x) const {
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-SNOWSIM_FLATTEN void MpmSolver<D, T>::scatterParticleWide(int p, PartialGrid& g, T dt) const {
+SNOWSIM_FLATTEN void MpmSolver<D, T>::scatterParticleAvx2(int p, PartialGrid& g, T dt) const {
   scatterParticle<Transfer, Kernel>(p, g, dt);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+SNOWSIM_FLATTEN void MpmSolver<D, T>::scatterParticleAvx512(int p, PartialGrid& g, T dt) const {
+  scatterParticle<Transfer, Kernel>(p, g, dt);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+void MpmSolver<D, T>::scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const {
+  switch (isa) {
+    case VectorIsa::avx512:
+      return scatterParticleAvx512<Transfer, Kernel>(p, g, dt);
+    case VectorIsa::avx2:
+      return scatterParticleAvx2<Transfer, Kernel>(p, g, dt);
+    case VectorIsa::baseline:
+      return scatterParticle<Transfer, Kernel>(p, g, dt);
+  }
 }
 
 template <int D, class T>
@@ -409,8 +421,27 @@ void MpmSolver<D, T>::solveImplicitVelocities(Real dt) {
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-SNOWSIM_FLATTEN void MpmSolver<D, T>::gatherVelocityWide(int p) {
+SNOWSIM_FLATTEN void MpmSolver<D, T>::gatherVelocityAvx2(int p) {
   gatherVelocity<Transfer, Kernel>(p);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+SNOWSIM_FLATTEN void MpmSolver<D, T>::gatherVelocityAvx512(int p) {
+  gatherVelocity<Transfer, Kernel>(p);
+}
+
+template <int D, class T>
+template <class Transfer, class Kernel>
+void MpmSolver<D, T>::gatherVelocityOn(VectorIsa isa, int p) {
+  switch (isa) {
+    case VectorIsa::avx512:
+      return gatherVelocityAvx512<Transfer, Kernel>(p);
+    case VectorIsa::avx2:
+      return gatherVelocityAvx2<Transfer, Kernel>(p);
+    case VectorIsa::baseline:
+      return gatherVelocity<Transfer, Kernel>(p);
+  }
 }
 
 template <int D, class T>
@@ -576,7 +607,7 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
     schedule_.passOverParticles("move particles", particles_.x, part_measures_,
                                 [&](int p, PartMeasure& m) {
-                                  return moveParticle<Transfer, Kernel>(p, m, dt, wideVectors());
+                                  return moveParticle<Transfer, Kernel>(p, m, dt, vectorIsa());
                                 });
   });
   collectMeasures();

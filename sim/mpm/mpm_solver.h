@@ -13,6 +13,7 @@
 
 #include "sim/core/collider.h"
 #include "sim/core/grid.h"
+#include "sim/core/stencil.h"
 #include "sim/distributed/slab_decomposition.h"
 #include "sim/mpm/implicit_solve.h"
 #include "sim/mpm/mpm_particles.h"
@@ -116,18 +117,26 @@ class MpmSolver final : public Solver<D> {
   // 1 + 3. Mass and momentum (eq. 1) and the force (eq. 7) of one particle into a partial grid.
   template <class Transfer, class Kernel>
   void scatterParticle(int p, PartialGrid& g, T dt) const;
-  // The same, compiled for AVX2, where wideVectors() says the processor has it: the transfers'
-  // four-lane loops each in one register. The same arithmetic, so the same results.
+  // The same, compiled for AVX2 and for AVX-512, called where vectorIsa() says the processor has
+  // them. The same arithmetic (no contraction into fused multiply-adds), so the same results.
   template <class Transfer, class Kernel>
-  [[gnu::target("avx2")]] void scatterParticleWide(int p, PartialGrid& g, T dt) const;
+  [[gnu::target("avx2")]] void scatterParticleAvx2(int p, PartialGrid& g, T dt) const;
+  template <class Transfer, class Kernel>
+  [[gnu::target("avx512f,avx512vl")]] void scatterParticleAvx512(int p, PartialGrid& g, T dt) const;
+  template <class Transfer, class Kernel>
+  void scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const;
   // 2. First step only: rho_p^0 and V_p^0 from the grid (section 4 step 2).
   template <class Kernel>
   void estimateVolume(int p);
   // 8. v_p (PIC/FLIP, APIC or MLS) and its velocity gradient.
   template <class Transfer, class Kernel>
   void gatherVelocity(int p);
+  template <class Transfer, class Kernel>  // as scatterParticleAvx2 and Avx512
+  [[gnu::target("avx2")]] void gatherVelocityAvx2(int p);
   template <class Transfer, class Kernel>
-  [[gnu::target("avx2")]] void gatherVelocityWide(int p);  // as scatterParticleWide
+  [[gnu::target("avx512f,avx512vl")]] void gatherVelocityAvx512(int p);
+  template <class Transfer, class Kernel>
+  void gatherVelocityOn(VectorIsa isa, int p);
   // 7. F_E <- (I + dt grad v) F_E (eq. 10), then plasticity (eqs. 11-12) and hardening (eq. 8).
   template <class Transfer>
   void updateDeformation(int p, T dt);
@@ -153,10 +162,10 @@ class MpmSolver final : public Solver<D> {
   };
   // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
   template <class Transfer, class Kernel>
-  Real moveParticle(int p, PartMeasure& m, T dt, bool wide);
+  Real moveParticle(int p, PartMeasure& m, T dt, VectorIsa isa);
   // 8, 7, 9, 10 for a particle awake.
   template <class Transfer, class Kernel>
-  void moveAwakeParticle(int p, T dt, bool wide);
+  void moveAwakeParticle(int p, T dt, VectorIsa isa);
   // Auto-sleep: whether a node of the stencil at x moves faster than the sleep speed, and whether
   // a moving collider is within a cell of x.
   template <class Kernel>

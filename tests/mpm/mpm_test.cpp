@@ -594,21 +594,27 @@ void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) 
   EXPECT_TRUE(one == fewer) << what << ", 3 threads then 2";
 }
 
-// The transfers compiled for AVX2 and for the x86-64 baseline (chosen at run time by
-// wideVectors()) do the same arithmetic: the same positions bit for bit, 2D and 3D, double and
-// float. On a processor without AVX2 both runs take the baseline.
+// The transfers compiled for AVX-512, AVX2 and the x86-64 baseline (chosen at run time by
+// vectorIsa()) do the same arithmetic: the same positions bit for bit, 2D and 3D, double and
+// float. Each build the processor runs is compared with the baseline; on one without AVX2 there is
+// only the baseline.
 template <int D, class T = Real>
 void expectSameWithAndWithoutWideVectors(const Json& j, const std::string& what) {
-  const bool wide = wideVectors();
-  auto runWith = [&](bool use_wide) {
-    wideVectors() = use_wide;
+  const VectorIsa best = vectorIsa();
+  auto runWith = [&](VectorIsa isa) {
+    vectorIsa() = isa;
     auto s = makeSolver<D, T>(j, 1);
     run(s, 0.004);
     return s.particles().positionsById();
   };
-  const auto with_wide = runWith(wide), without = runWith(false);
-  wideVectors() = wide;
-  EXPECT_TRUE(with_wide == without) << what;
+  const auto baseline = runWith(VectorIsa::baseline);
+  if (best >= VectorIsa::avx2) {
+    EXPECT_TRUE(runWith(VectorIsa::avx2) == baseline) << what << ", AVX2";
+  }
+  if (best >= VectorIsa::avx512) {
+    EXPECT_TRUE(runWith(VectorIsa::avx512) == baseline) << what << ", AVX-512";
+  }
+  vectorIsa() = best;
 }
 
 TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {

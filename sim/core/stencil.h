@@ -69,8 +69,9 @@ inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T
 
 // Four scalars in one value (GCC's vector extension), loaded from and stored to any scalar array:
 // the compiler keeps one in a single vector register where the target has registers that wide,
-// else in two. Lane-wise arithmetic rounds as scalar arithmetic does (no contraction across
-// lanes), so a loop on them gives the same result on every target.
+// else in two. Lane-wise arithmetic rounds as scalar arithmetic does (no contraction into fused
+// multiply-adds: -ffp-contract=off, CMakeLists.txt), so a loop on them gives the same result on
+// every target.
 template <class T>
 struct Lanes4;
 template <>
@@ -86,14 +87,15 @@ struct Lanes4<float> {
 // solvers call that build of the transfers (the four-lane loops of TensorStencil in one register
 // each; AVX-512's 32 registers keep the 3D transfers' sums out of memory). Found at the first call;
 // tests set it to compare the builds.
-enum class VectorIsa { baseline, avx2, avx512 };
+enum class VectorIsa { baseline, avx2, avx512 };  // narrowest to widest
 
 inline VectorIsa& vectorIsa() {
   static VectorIsa isa = [] {
     __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl"))
-      return VectorIsa::avx512;
-    return __builtin_cpu_supports("avx2") ? VectorIsa::avx2 : VectorIsa::baseline;
+    if (!__builtin_cpu_supports("avx2")) return VectorIsa::baseline;
+    // GCC's avx512f target includes AVX2: a virtual machine could offer one without the other.
+    const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl");
+    return avx512 ? VectorIsa::avx512 : VectorIsa::avx2;
   }();
   return isa;
 }

@@ -246,8 +246,9 @@ void MpmSolver<D, T>::scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T 
     case VectorIsa::avx2:
       return scatterParticleAvx2<Transfer, Kernel>(p, g, dt);
     case VectorIsa::baseline:
-      return scatterParticle<Transfer, Kernel>(p, g, dt);
+      break;
   }
+  scatterParticle<Transfer, Kernel>(p, g, dt);
 }
 
 template <int D, class T>
@@ -440,8 +441,9 @@ void MpmSolver<D, T>::gatherVelocityOn(VectorIsa isa, int p) {
     case VectorIsa::avx2:
       return gatherVelocityAvx2<Transfer, Kernel>(p);
     case VectorIsa::baseline:
-      return gatherVelocity<Transfer, Kernel>(p);
+      break;
   }
+  gatherVelocity<Transfer, Kernel>(p);
 }
 
 template <int D, class T>
@@ -477,15 +479,17 @@ template <class Transfer>
 void MpmSolver<D, T>::updateDeformation(int p, T dt) {
   // For PIC/FLIP C holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
   M& F_E = particles_.F_E[p];
-  // eq. 10, F_E^trial = (I + dt C) F_E, written out (Eigen calls a function for the product of
-  // small matrices; in 2D the call cost a twentieth of the step), summed in Eigen's order.
+  // eq. 10, F_E^trial = (I + dt C) F_E, written out: GCC does not inline Eigen's product of small
+  // matrices (in 2D the call cost a twentieth of the step). Each entry is summed as Eigen's
+  // unrolled sum is, a + (b + c) in 3D, so the results are Eigen's bit for bit.
   const M G = M::Identity() + dt * particles_.C[p];
   M trial;
   for (int j = 0; j < D; ++j)
     for (int i = 0; i < D; ++i) {
-      T rest = G(i, D - 1) * F_E(D - 1, j);
-      for (int k = D - 2; k > 0; --k) rest = G(i, k) * F_E(k, j) + rest;
-      trial(i, j) = G(i, 0) * F_E(0, j) + rest;
+      if constexpr (D == 2)
+        trial(i, j) = G(i, 0) * F_E(0, j) + G(i, 1) * F_E(1, j);
+      else
+        trial(i, j) = G(i, 0) * F_E(0, j) + (G(i, 1) * F_E(1, j) + G(i, 2) * F_E(2, j));
     }
   F_E = trial;
   T& J_P = particles_.J_P[p];
@@ -594,9 +598,11 @@ void MpmSolver<D, T>::beforeFirstStep() {
 
 template <int D, class T>
 void MpmSolver<D, T>::scatter(Real dt) {
+  const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    schedule_.scatterAlone(
-        particles_.x, [&](int p, PartialGrid& g) { scatterParticle<Transfer, Kernel>(p, g, dt); });
+    schedule_.scatterAlone(particles_.x, [&](int p, PartialGrid& g) {
+      scatterParticleOn<Transfer, Kernel>(isa, p, g, dt);
+    });
   });
 }
 
@@ -614,11 +620,11 @@ void MpmSolver<D, T>::updateGridVelocities(Real dt) {
 template <int D, class T>
 void MpmSolver<D, T>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
+  const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
-                                [&](int p, PartMeasure& m) {
-                                  return moveParticle<Transfer, Kernel>(p, m, dt, vectorIsa());
-                                });
+    schedule_.passOverParticles(
+        "move particles", particles_.x, part_measures_,
+        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, isa); });
   });
   collectMeasures();
 }

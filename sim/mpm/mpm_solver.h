@@ -119,11 +119,13 @@ class MpmSolver final : public Solver<D> {
   void scatterParticle(int p, PartialGrid& g, T dt) const;
   // The same, compiled for AVX2 and for AVX-512, called where vectorIsa() says the processor has
   // them. The same arithmetic (no contraction into fused multiply-adds), so the same results.
+  // AVX-512 for its 32 registers, with 256-bit vectors: some processors slow down for 512-bit ones.
   template <class Transfer, class Kernel>
   [[gnu::target("avx2")]] void scatterParticleAvx2(int p, PartialGrid& g, T dt) const;
   template <class Transfer, class Kernel>
-  [[gnu::target("avx512f,avx512vl")]] void scatterParticleAvx512(int p, PartialGrid& g, T dt) const;
-  template <class Transfer, class Kernel>
+  [[gnu::target("avx512f,avx512vl,prefer-vector-width=256")]] void scatterParticleAvx512(
+      int p, PartialGrid& g, T dt) const;
+  template <class Transfer, class Kernel>  // the build for isa
   void scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const;
   // 2. First step only: rho_p^0 and V_p^0 from the grid (section 4 step 2).
   template <class Kernel>
@@ -134,8 +136,8 @@ class MpmSolver final : public Solver<D> {
   template <class Transfer, class Kernel>  // as scatterParticleAvx2 and Avx512
   [[gnu::target("avx2")]] void gatherVelocityAvx2(int p);
   template <class Transfer, class Kernel>
-  [[gnu::target("avx512f,avx512vl")]] void gatherVelocityAvx512(int p);
-  template <class Transfer, class Kernel>
+  [[gnu::target("avx512f,avx512vl,prefer-vector-width=256")]] void gatherVelocityAvx512(int p);
+  template <class Transfer, class Kernel>  // the build for isa
   void gatherVelocityOn(VectorIsa isa, int p);
   // 7. F_E <- (I + dt grad v) F_E (eq. 10), then plasticity (eqs. 11-12) and hardening (eq. 8).
   template <class Transfer>

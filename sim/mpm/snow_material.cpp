@@ -252,7 +252,7 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
   const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
   const T c0 = std::clamp(s0, lo, hi), c1 = std::clamp(s1, lo, hi);  // eq. 11
   if (r > 0) {
-    const T c = x / r, s = y / r;  // (-y) / r rounds to -(y / r): two divisions, not four
+    const T c = x / r, s = y / r;  // (-y) / r is -(y / r) (rounding is symmetric): two divisions
     R_E << c, -s, s, c;
   } else {
     R_E.setIdentity();  // as polarRotation: any rotation will do

@@ -599,7 +599,7 @@ void expectBitIdenticalOnAnyThreadCount(const Json& j, const std::string& what) 
 // float. Each build the processor runs is compared with the baseline; on one without AVX2 there is
 // only the baseline.
 template <int D, class T = Real>
-void expectSameWithAndWithoutWideVectors(const Json& j, const std::string& what) {
+void expectSameOnEveryVectorIsa(const Json& j, const std::string& what) {
   const VectorIsa best = vectorIsa();
   auto runWith = [&](VectorIsa isa) {
     vectorIsa() = isa;
@@ -629,8 +629,8 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     expectBitIdenticalOnAnyThreadCount<2>(j, transfer);
   }
   expectBitIdenticalOnAnyThreadCount<2, float>(j, "mls, float");
-  expectSameWithAndWithoutWideVectors<2>(j, "2D MLS, transfers for any processor");
-  expectSameWithAndWithoutWideVectors<2, float>(j, "2D MLS, float, transfers for any processor");
+  expectSameOnEveryVectorIsa<2>(j, "2D MLS, transfers for any processor");
+  expectSameOnEveryVectorIsa<2, float>(j, "2D MLS, float, transfers for any processor");
   j["mpm"] = {{"integrator", "semi_implicit"}};
   expectBitIdenticalOnAnyThreadCount<2>(j, "semi-implicit");
   // 3D: four colours of rows, blocks of 4^3 cells.
@@ -643,8 +643,8 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   j["mpm"] = {{"transfer", "apic"}};
   expectBitIdenticalOnAnyThreadCount<3>(j, "3D APIC");
   expectBitIdenticalOnAnyThreadCount<3, float>(j, "3D APIC, float");
-  expectSameWithAndWithoutWideVectors<3>(j, "3D APIC, transfers for any processor");
-  expectSameWithAndWithoutWideVectors<3, float>(j, "3D APIC, float, transfers for any processor");
+  expectSameOnEveryVectorIsa<3>(j, "3D APIC, transfers for any processor");
+  expectSameOnEveryVectorIsa<3, float>(j, "3D APIC, float, transfers for any processor");
 }
 
 // The particles' stored order changes only round-off (the order of the scatter's sums within a

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/temp_dir.h"
+
 namespace snowsim_test {
 
 struct Result {
@@ -67,10 +69,9 @@ inline std::map<std::string, std::string> frames(const std::filesystem::path& di
   return files;
 }
 
-// An empty path under the temporary directory, private to this test process.
+// An empty path under the test process's temporary directory.
 inline std::filesystem::path freshDir(const std::string& name) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("snowsim_cli_" + std::to_string(getpid())) / name;
+  const std::filesystem::path dir = processTempDir() / name;
   std::filesystem::remove_all(dir);
   return dir;
 }

@@ -1,13 +1,12 @@
 // The renderer looked at as pixels: where things land, what colours mean, and that it repeats.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 
 #include "render/renderer.h"
 #include "sim/core/errors.h"
+#include "tests/temp_dir.h"
 
 namespace snowsim {
 namespace {
@@ -327,8 +326,7 @@ TEST(Renderer, PresetCameraFramesTheSnow) {
 
 TEST(Image, PngRoundTripsAndWritesAtomically) {
   const Image image = sharedRenderer().render(emptyDomain(2));
-  const auto path =
-      std::filesystem::temp_directory_path() / ("snowsim_png_" + std::to_string(getpid()) + ".png");
+  const auto path = snowsim_test::processTempDir() / "image.png";
   writePng(path.string(), image);
   EXPECT_FALSE(std::filesystem::exists(path.string() + ".tmp"));
   const Image back = readPng(path.string());

@@ -11,6 +11,7 @@
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
 #include "sim/simulation.h"
+#include "tests/temp_dir.h"
 
 namespace snowsim {
 namespace {
@@ -183,8 +184,7 @@ std::string fileBytes(const std::string& path) {
 }
 
 TEST(ReportScenes, SameSceneTwiceGivesBitIdenticalPly) {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("snowsim_det_" + std::to_string(getpid()));
+  const auto dir = snowsim_test::processTempDir() / "det";
   std::filesystem::create_directories(dir);
   std::string bytes[2];
   for (int k = 0; k < 2; ++k) {

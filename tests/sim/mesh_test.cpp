@@ -17,6 +17,7 @@
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
+#include "tests/temp_dir.h"
 
 using namespace snowsim;
 namespace fs = std::filesystem;
@@ -26,7 +27,7 @@ namespace {
 const std::string kMeshes = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/meshes/";
 
 fs::path tempDir() {
-  const fs::path dir = fs::temp_directory_path() / ("snowsim_mesh_" + std::to_string(getpid()));
+  const fs::path dir = snowsim_test::processTempDir() / "mesh";
   fs::create_directories(dir);
   return dir;
 }

@@ -6,13 +6,13 @@
 
 #include "sim/core/errors.h"
 #include "sim/io/ply.h"
+#include "tests/temp_dir.h"
 
 namespace snowsim {
 namespace {
 
 std::filesystem::path tempDir() {
-  auto dir =
-      std::filesystem::temp_directory_path() / ("snowsim_ply_test_" + std::to_string(getpid()));
+  auto dir = snowsim_test::processTempDir() / "ply";
   std::filesystem::create_directories(dir);
   return dir;
 }

@@ -10,6 +10,7 @@
 #include "sim/core/errors.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
+#include "tests/temp_dir.h"
 
 // The scene is plain structs: its header keeps the JSON library to itself.
 #ifdef NLOHMANN_JSON_VERSION_MAJOR
@@ -28,8 +29,7 @@ const std::string kMinimal = R"({
 std::string writeTemp(const std::string& text) {
   static int counter = 0;
   const auto path =
-      std::filesystem::temp_directory_path() / ("snowsim_scene_test_" + std::to_string(getpid()) +
-                                                "_" + std::to_string(counter++) + ".json");
+      snowsim_test::processTempDir() / ("scene_" + std::to_string(counter++) + ".json");
   std::ofstream(path) << text;
   return path.string();
 }

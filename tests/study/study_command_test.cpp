@@ -1,7 +1,6 @@
 // snowsim study --quick: the CSV has its columns, every unstable configuration was caught
 // (status, not NaN), and a rerun by the same build measures nothing again.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +11,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "tests/temp_dir.h"
 
 namespace {
 
@@ -25,8 +26,7 @@ std::vector<std::string> split(const std::string& line) {
 }
 
 TEST(StudyCommand, QuickPresetWritesCaughtRowsAndSkipsOnRerun) {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("snowsim_study_test_" + std::to_string(getpid()));
+  const auto dir = snowsim_test::processTempDir() / "study";
   std::filesystem::remove_all(dir);
   const std::string csv = (dir / "results.csv").string();
   const std::string command = std::string(SNOWSIM_BINARY) + " study --quick --scenes " +
@@ -108,8 +108,7 @@ TEST(StudyCommand, QuickPresetWritesCaughtRowsAndSkipsOnRerun) {
 namespace {
 
 long stepsOfRun(const std::string& arguments) {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("snowsim_quality_test_" + std::to_string(getpid()));
+  const auto dir = snowsim_test::processTempDir() / "quality";
   std::filesystem::remove_all(dir);
   const std::string command = std::string(SNOWSIM_BINARY) + " run " + SNOWSIM_SOURCE_DIR +
                               "/scenes/snowball_drop.json --no-png --no-ply --no-mp4 -o " +
@@ -144,8 +143,7 @@ namespace {
 // run.json of a short MPM run of the snowball drop on a grid of 30x36 cells of a third of a
 // centimetre (the same domain), or null when the run fails.
 nlohmann::json thirdCentimetreRun(const std::string& arguments) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("snowsim_quality_cells_" + std::to_string(getpid()));
+  const auto dir = snowsim_test::processTempDir() / "quality_cells";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   auto scene = nlohmann::json::parse(

@@ -13,10 +13,13 @@
 
 namespace snowsim_test {
 
+inline std::filesystem::path processTempPath() {
+  return std::filesystem::temp_directory_path() / ("snowsim_test_" + std::to_string(getpid()));
+}
+
 // The directory itself, created on first use.
 inline std::filesystem::path processTempDir() {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("snowsim_test_" + std::to_string(getpid()));
+  const std::filesystem::path dir = processTempPath();
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -26,9 +29,7 @@ class TempDirCleanup : public ::testing::Environment {
   void TearDown() override {
     if (!::testing::UnitTest::GetInstance()->Passed()) return;
     std::error_code ignored;
-    std::filesystem::remove_all(
-        std::filesystem::temp_directory_path() / ("snowsim_test_" + std::to_string(getpid())),
-        ignored);
+    std::filesystem::remove_all(processTempPath(), ignored);
   }
 };
 inline const ::testing::Environment* const kTempDirCleanup =

@@ -6,6 +6,7 @@
 
 #include "sim/core/bspline.h"
 #include "sim/core/grid.h"
+#include "sim/core/lanes.h"
 
 namespace snowsim {
 
@@ -42,14 +43,6 @@ inline void visitStencilNodes(const GridGeometry<D>& grid, const Stencil<D, Kern
   (visit(std::integral_constant<int, Node>{}), ...);
 }
 
-// Sanitized builds leave it out: instrumented, the flattened transfers take GCC over 11 minutes
-// to compile (CMakeLists.txt). Inlining changes no result.
-#ifdef SNOWSIM_SANITIZED
-#define SNOWSIM_FLATTEN
-#else
-#define SNOWSIM_FLATTEN [[gnu::flatten]]
-#endif
-
 // Flattened: the per-node lambda and everything it calls are inlined into each unrolled node, which
 // keeps the transfers' values in registers (bench/mpm_bench measures it). A callback that calls
 // much (a test's assertions) makes this slow to compile: collect the nodes first there.
@@ -65,39 +58,6 @@ template <int D, class Kernel, class T, class F>
 inline void visitStencil(const GridGeometry<D>& grid, const Stencil<D, Kernel, T>& s,
                          const Vec<D, T>& x, F&& f) {
   visitStencilFlattened(grid, s, x, std::forward<F>(f));
-}
-
-// Four scalars in one value (GCC's vector extension), loaded from and stored to any scalar array:
-// the compiler keeps one in a single vector register where the target has registers that wide,
-// else in two. Lane-wise arithmetic rounds as scalar arithmetic does (no contraction into fused
-// multiply-adds: -ffp-contract=off, CMakeLists.txt), so a loop on them gives the same result on
-// every target.
-template <class T>
-struct Lanes4;
-template <>
-struct Lanes4<double> {
-  typedef double type __attribute__((vector_size(32), aligned(8), may_alias));
-};
-template <>
-struct Lanes4<float> {
-  typedef float type __attribute__((vector_size(16), aligned(4), may_alias));
-};
-
-// The widest vector instructions the transfers are compiled for that the processor runs: the
-// solvers call that build of the transfers (the four-lane loops of TensorStencil in one register
-// each; AVX-512's 32 registers keep the 3D transfers' sums out of memory). Found at the first call;
-// tests set it to compare the builds.
-enum class VectorIsa { baseline, avx2, avx512 };  // narrowest to widest
-
-inline VectorIsa& vectorIsa() {
-  static VectorIsa isa = [] {
-    __builtin_cpu_init();
-    if (!__builtin_cpu_supports("avx2")) return VectorIsa::baseline;
-    // GCC's avx512f target includes AVX2: a virtual machine could offer one without the other.
-    const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl");
-    return avx512 ? VectorIsa::avx512 : VectorIsa::avx2;
-  }();
-  return isa;
 }
 
 // Tensor-product transfers for APIC and MLS-MPM. A weight is a product over axes,

@@ -143,33 +143,65 @@ void MpmSolver<D, T>::stepWith(T dt) {
     if (semi_implicit)  // 5 + 6: collided v*, then the solve
       schedule_.timed("implicit solve", [&] { solveImplicitVelocities(dt); });
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.
-    schedule_.passOverParticles(
-        "move particles", particles_.x, part_measures_,
-        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, isa); });
+    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
+                                [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
+                                  moveParticles<Transfer, Kernel>(batch, m, shares, dt, isa);
+                                });
   });
 }
 
 template <int D, class T>
 template <class Transfer, class Kernel>
-Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, VectorIsa isa) {
-  if (!params_.auto_sleep.enabled) {
-    moveAwakeParticle<Transfer, Kernel>(p, dt, isa);
-    return measure(p, m);
+void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt,
+                                    VectorIsa isa) {
+  // 8 and the trial F_E one particle at a time, the return mapping for the batch's awake ones at
+  // once, then 9 and 10 one at a time. Nothing a particle's steps read is written by another's.
+  constexpr int most = Schedule::pass_batch;
+  int awake[most];
+  V x_before[most];
+  int count = 0;
+  for (const int p : batch) {
+    if (params_.auto_sleep.enabled && sleepsThrough<Kernel>(p)) continue;
+    x_before[count] = particles_.x[p];
+    awake[count++] = p;
+    gatherVelocityOn<Transfer, Kernel>(isa, p);  // 8 (gathered first: 7 needs grad v)
+    trialDeformation(p, dt);                     // 7
   }
-  int& calm = particles_.calm_steps[p];
-  const V x = particles_.x[p];
-  if (calm >= params_.auto_sleep.steps) {
-    // Asleep: it scattered its mass and its stress, both unchanged while it sleeps; it has no
-    // velocity to gather and no deformation to update while its stencil rests.
-    if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) {
+  returnMapping<Transfer>(std::span<const int>(awake, count), isa);
+  for (int i = 0, a = 0; i < int(batch.size()); ++i) {
+    const int p = batch[i];
+    if (a < count && awake[a] == p) {
+      collideParticle(p);  // 9
+      advect(p, dt);       // 10
+      if (params_.auto_sleep.enabled) restOrStir<Kernel>(p, x_before[a]);
+      ++a;
+    } else {
       ++m.asleep;
-      return measure(p, m);
     }
-    calm = 0;  // wakes, and moves this very step
+    shares[i] = measure(p, m);
   }
-  moveAwakeParticle<Transfer, Kernel>(p, dt, isa);
+}
+
+template <int D, class T>
+template <class Kernel>
+bool MpmSolver<D, T>::sleepsThrough(int p) {
+  int& calm = particles_.calm_steps[p];
+  if (calm < params_.auto_sleep.steps) return false;
+  // Asleep: it scattered its mass and its stress, both unchanged while it sleeps; it has no
+  // velocity to gather and no deformation to update while its stencil rests.
+  const V& x = particles_.x[p];
+  if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) return true;
+  calm = 0;  // wakes, and moves this very step
+  return false;
+}
+
+template <int D, class T>
+template <class Kernel>
+void MpmSolver<D, T>::restOrStir(int p, const V& x_before) {
+  int& calm = particles_.calm_steps[p];
   const T speed = T(params_.auto_sleep.speed);
-  const bool resting = particles_.v[p].squaredNorm() < speed * speed && !stencilMoves<Kernel>(x);
+  const bool resting =
+      particles_.v[p].squaredNorm() < speed * speed && !stencilMoves<Kernel>(x_before);
   calm = resting ? calm + 1 : 0;
   if (calm >= params_.auto_sleep.steps) {
     // Falls asleep at rest: its slow drift and its affine velocity stop feeding the grid's
@@ -177,16 +209,6 @@ Real MpmSolver<D, T>::moveParticle(int p, PartMeasure& m, T dt, VectorIsa isa) {
     particles_.v[p].setZero();
     particles_.C[p].setZero();
   }
-  return measure(p, m);
-}
-
-template <int D, class T>
-template <class Transfer, class Kernel>
-void MpmSolver<D, T>::moveAwakeParticle(int p, T dt, VectorIsa isa) {
-  gatherVelocityOn<Transfer, Kernel>(isa, p);  // 8 (gathered first: 7 needs grad v)
-  updateDeformation<Transfer>(p, dt);          // 7
-  collideParticle(p);                          // 9
-  advect(p, dt);                               // 10
 }
 
 template <int D, class T>
@@ -475,8 +497,7 @@ void MpmSolver<D, T>::gatherVelocity(int p) {
 }
 
 template <int D, class T>
-template <class Transfer>
-void MpmSolver<D, T>::updateDeformation(int p, T dt) {
+void MpmSolver<D, T>::trialDeformation(int p, T dt) {
   // For PIC/FLIP C holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
   M& F_E = particles_.F_E[p];
   // eq. 10, F_E^trial = (I + dt C) F_E, written out: GCC does not inline Eigen's product of small
@@ -492,16 +513,34 @@ void MpmSolver<D, T>::updateDeformation(int p, T dt) {
         trial(i, j) = G(i, 0) * F_E(0, j) + (G(i, 1) * F_E(1, j) + G(i, 2) * F_E(2, j));
     }
   F_E = trial;
-  T& J_P = particles_.J_P[p];
-  const T J_P_before = J_P;
-  if constexpr (D == 2)
-    J_P = plasticReturnMappingJ(material_, F_E, J_P, particles_.R_E[p]);  // eqs. 11-12
-  else
-    J_P = plasticReturnMappingJ(material_, F_E, J_P, particles_.R_E[p], particles_.V_E[p]);
-  // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp there.
-  if (J_P != J_P_before) particles_.lame[p] = hardenedLame<T>(material_, J_P);
-  // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
-  if constexpr (!Transfer::affine) particles_.C[p].setZero();
+}
+
+template <int D, class T>
+template <class Transfer>
+void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
+  for (size_t first = 0; first < ps.size(); first += returnMappingLanes) {
+    const std::span<const int> group =
+        ps.subspan(first, std::min<size_t>(returnMappingLanes, ps.size() - first));
+    T J_P_before[returnMappingLanes];
+    for (size_t l = 0; l < group.size(); ++l) J_P_before[l] = particles_.J_P[group[l]];
+    if constexpr (D == 2) {
+      for (const int p : group)
+        particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], particles_.J_P[p],
+                                                  particles_.R_E[p]);  // eqs. 11-12
+    } else {
+      plasticReturnMappingJ<T>(material_, group, particles_.F_E.data(), particles_.J_P.data(),
+                               particles_.R_E.data(), particles_.V_E.data(), isa);
+    }
+    for (size_t l = 0; l < group.size(); ++l) {
+      const int p = group[l];
+      // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
+      // there.
+      if (particles_.J_P[p] != J_P_before[l])
+        particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
+      // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
+      if constexpr (!Transfer::affine) particles_.C[p].setZero();
+    }
+  }
 }
 
 template <int D, class T>
@@ -561,7 +600,10 @@ template <int D, class T>
 void MpmSolver<D, T>::measureParticles() {
   part_measures_.resize(schedule_.prepare());
   schedule_.passOverParticles("measure particles", particles_.x, part_measures_,
-                              [&](int p, PartMeasure& m) { return measure(p, m); });
+                              [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
+                                for (size_t i = 0; i < batch.size(); ++i)
+                                  shares[i] = measure(batch[i], m);
+                              });
   collectMeasures();
 }
 
@@ -622,9 +664,10 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
   const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    schedule_.passOverParticles(
-        "move particles", particles_.x, part_measures_,
-        [&](int p, PartMeasure& m) { return moveParticle<Transfer, Kernel>(p, m, dt, isa); });
+    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
+                                [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
+                                  moveParticles<Transfer, Kernel>(batch, m, shares, dt, isa);
+                                });
   });
   collectMeasures();
 }

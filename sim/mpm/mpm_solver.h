@@ -8,6 +8,7 @@
 #pragma once
 
 #include <limits>
+#include <span>
 #include <type_traits>
 #include <vector>
 
@@ -119,12 +120,10 @@ class MpmSolver final : public Solver<D> {
   void scatterParticle(int p, PartialGrid& g, T dt) const;
   // The same, compiled for AVX2 and for AVX-512, called where vectorIsa() says the processor has
   // them. The same arithmetic (no contraction into fused multiply-adds), so the same results.
-  // AVX-512 for its 32 registers, with 256-bit vectors: some processors slow down for 512-bit ones.
   template <class Transfer, class Kernel>
-  [[gnu::target("avx2")]] void scatterParticleAvx2(int p, PartialGrid& g, T dt) const;
+  SNOWSIM_TARGET_AVX2 void scatterParticleAvx2(int p, PartialGrid& g, T dt) const;
   template <class Transfer, class Kernel>
-  [[gnu::target("avx512f,avx512vl,prefer-vector-width=256")]] void scatterParticleAvx512(
-      int p, PartialGrid& g, T dt) const;
+  SNOWSIM_TARGET_AVX512 void scatterParticleAvx512(int p, PartialGrid& g, T dt) const;
   template <class Transfer, class Kernel>  // the build for isa
   void scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const;
   // 2. First step only: rho_p^0 and V_p^0 from the grid (section 4 step 2).
@@ -134,14 +133,17 @@ class MpmSolver final : public Solver<D> {
   template <class Transfer, class Kernel>
   void gatherVelocity(int p);
   template <class Transfer, class Kernel>  // as scatterParticleAvx2 and Avx512
-  [[gnu::target("avx2")]] void gatherVelocityAvx2(int p);
+  SNOWSIM_TARGET_AVX2 void gatherVelocityAvx2(int p);
   template <class Transfer, class Kernel>
-  [[gnu::target("avx512f,avx512vl,prefer-vector-width=256")]] void gatherVelocityAvx512(int p);
+  SNOWSIM_TARGET_AVX512 void gatherVelocityAvx512(int p);
   template <class Transfer, class Kernel>  // the build for isa
   void gatherVelocityOn(VectorIsa isa, int p);
-  // 7. F_E <- (I + dt grad v) F_E (eq. 10), then plasticity (eqs. 11-12) and hardening (eq. 8).
+  // 7. F_E <- (I + dt grad v) F_E (eq. 10).
+  void trialDeformation(int p, T dt);
+  // 7, then: plasticity (eqs. 11-12) and hardening (eq. 8) of particles ps, in 3D eight at a time
+  // in vector lanes (the build for isa).
   template <class Transfer>
-  void updateDeformation(int p, T dt);
+  void returnMapping(std::span<const int> ps, VectorIsa isa);
   void collideParticle(int p);  // 9. particle-based body collisions (section 8)
   void advect(int p, T dt);     // 10. x += dt v, kept out of colliders and in the domain
 
@@ -162,12 +164,17 @@ class MpmSolver final : public Solver<D> {
     bool finite = true;
     long asleep = 0;  // particles that slept through the pass
   };
-  // 8, 7, 9, 10 for particle p, measured into m; returns its energy.
+  // 8, 7, 9, 10 for a batch of the particle pass, each particle measured into m; shares[i] is
+  // batch[i]'s energy.
   template <class Transfer, class Kernel>
-  Real moveParticle(int p, PartMeasure& m, T dt, VectorIsa isa);
-  // 8, 7, 9, 10 for a particle awake.
-  template <class Transfer, class Kernel>
-  void moveAwakeParticle(int p, T dt, VectorIsa isa);
+  void moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt, VectorIsa isa);
+  // Auto-sleep: whether particle p sleeps through this step (waking it if its stencil or a
+  // collider moves), and after it moved from x_before, whether it has rested long enough to
+  // fall asleep.
+  template <class Kernel>
+  bool sleepsThrough(int p);
+  template <class Kernel>
+  void restOrStir(int p, const V& x_before);
   // Auto-sleep: whether a node of the stencil at x moves faster than the sleep speed, and whether
   // a moving collider is within a cell of x.
   template <class Kernel>

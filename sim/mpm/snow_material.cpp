@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace snowsim {
@@ -272,82 +273,227 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
 
 namespace {
 
-// The polar rotation of F by Newton's iteration X <- (X + X^-T) / 2 (Higham 1986), started from F
-// itself: it squares the distance of each singular value from 1 per iteration, so the few percent
-// that snow's F_E strays from a rotation take four iterations to round-off. False if det F <= 0
-// (the polar factor would be a reflection) or it does not converge in a few iterations.
+// The 3D return mapping runs a particle per vector lane: the polar rotation by Newton's iteration
+// X <- (X + X^-T) / 2 (Higham 1986), started from F itself, squares the distance of each singular
+// value from 1 per iteration, so the few percent that snow's F_E strays from a rotation take about
+// four iterations to round-off. One particle's iteration is a chain of dependent divisions; eight
+// in lanes overlap their chains. Each lane stops when its own iteration converges, so a particle's
+// result does not depend on the others in its batch.
 template <class T>
-bool newtonPolar3(const Mat<3, T>& F, Mat<3, T>& R) {
-  Mat<3, T> X = F;
-  for (int iteration = 0; iteration < 8; ++iteration) {
-    const Mat<3, T> cofactor = cofactor3(X);  // det X X^-T
-    const T det = X.col(0).dot(cofactor.col(0));
-    if (!(det > 0)) return false;
-    const Mat<3, T> next = T(0.5) * (X + cofactor / det);
-    const T change = (next - X).squaredNorm();
-    X = next;
-    // The next change would be about change^2: X is exact to round-off.
-    if (change <= Tolerance<T>::newton) {
-      R = X;
-      return true;
+using Lanes = typename Lanes8<T>::type;
+template <class T>
+using LaneMask = decltype(Lanes<T>{} > Lanes<T>{});
+constexpr int lanes = returnMappingLanes;
+
+// A 3x3 matrix per lane: a[i][j] holds entry (i, j) of every lane's matrix.
+template <class T>
+struct Mat3Lanes {
+  Lanes<T> a[3][3];
+};
+
+// Entry (i, j) of matrix ps[l] of M into lane l; lanes past the batch hold the identity.
+template <class T>
+[[gnu::always_inline]] inline void loadLanes(const Mat<3, T>* M, std::span<const int> ps,
+                                             Mat3Lanes<T>& out) {
+  alignas(64) T entries[9][lanes];
+  for (int l = 0; l < lanes; ++l)
+    for (int e = 0; e < 9; ++e)
+      entries[e][l] = l < int(ps.size()) ? M[ps[l]].data()[e] : T(e % 4 == 0);
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) std::memcpy(&out.a[i][j], entries[i + 3 * j], sizeof(Lanes<T>));
+}
+
+template <class T>
+[[gnu::always_inline]] inline void storeLane(const Mat3Lanes<T>& X, int l, Mat<3, T>& out) {
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) out(i, j) = X.a[i][j][l];
+}
+
+// The cofactor matrix det(X) X^-T, finite for singular X: its columns are the cross products of
+// X's other two columns.
+template <class T>
+[[gnu::always_inline]] inline void cofactorLanes(const Mat3Lanes<T>& X, Mat3Lanes<T>& C) {
+  for (int j = 0; j < 3; ++j) {
+    const int p = (j + 1) % 3, q = (j + 2) % 3;  // column j = column p x column q
+    for (int i = 0; i < 3; ++i) {
+      const int r = (i + 1) % 3, s = (i + 2) % 3;
+      C.a[i][j] = X.a[r][p] * X.a[s][q] - X.a[s][p] * X.a[r][q];
     }
   }
-  return false;
 }
 
-// Whether every eigenvalue of the symmetric part of S lies in [lo, hi] (S = R^T F has the
-// singular values of F as eigenvalues): S - lo I and hi I - S positive definite, by their leading
-// principal minors (Sylvester's criterion).
+// Newton's polar iteration in every lane. A lane converges (true in `converged`, X its rotation)
+// when a step changes X by less than round-off's square root; it fails where det X <= 0 (the polar
+// factor would be a reflection) or it has not converged in eight steps.
 template <class T>
-bool eigenvaluesWithin(const Mat<3, T>& S, T lo, T hi) {
-  const Mat<3, T> sym = T(0.5) * (S + S.transpose());
-  auto positiveDefinite = [](const Mat<3, T>& A) {
-    return A(0, 0) > 0 && A(0, 0) * A(1, 1) - A(0, 1) * A(1, 0) > 0 && A.determinant() > 0;
-  };
-  return positiveDefinite(sym - lo * Mat<3, T>::Identity()) &&
-         positiveDefinite(hi * Mat<3, T>::Identity() - sym);
-}
-
-}  // namespace
-
-template <class T>
-T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
-                        Mat<3, T>& R_E, Mat<3, T>& V_E) {
-  // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
-  // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
-  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
-  Mat<3, T> R;
-  if (newtonPolar3(F_E, R) && eigenvaluesWithin<T>(R.transpose() * F_E, lo, hi)) {
-    R_E = R;
-    return J_P;
+[[gnu::always_inline]] inline void newtonPolarLanes(Mat3Lanes<T>& X, LaneMask<T>& converged) {
+  LaneMask<T> active = LaneMask<T>{} == 0;
+  converged = LaneMask<T>{};
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    Mat3Lanes<T> C;
+    cofactorLanes(X, C);
+    const Lanes<T> det = X.a[0][0] * C.a[0][0] + X.a[1][0] * C.a[1][0] + X.a[2][0] * C.a[2][0];
+    active &= det > 0;  // false for NaN too
+    const Lanes<T> half_inverse = T(0.5) / det;
+    Lanes<T> change = {};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const Lanes<T> next = T(0.5) * X.a[i][j] + half_inverse * C.a[i][j];
+        const Lanes<T> step = next - X.a[i][j];
+        change += step * step;
+        X.a[i][j] = active ? next : X.a[i][j];
+      }
+    // The next change would be about change^2: X is exact to round-off.
+    const LaneMask<T> done = active & (change <= Tolerance<T>::newton);
+    converged |= done;
+    active &= ~done;
+    bool any = false;
+    for (int l = 0; l < lanes; ++l) any |= active[l] != 0;
+    if (!any) return;
   }
+}
+
+// Sylvester's criterion for the symmetric A: leading principal minors all positive. (Vectors are
+// passed by reference here: by value, they would change the baseline build's calling convention.)
+template <class T>
+[[gnu::always_inline]] inline void positiveDefiniteLanes(const Lanes<T> (&A)[3][3],
+                                                         LaneMask<T>& positive) {
+  const Lanes<T> minor2 = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+  const Lanes<T> det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
+                       A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+                       A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+  positive = (A[0][0] > 0) & (minor2 > 0) & (det > 0);
+}
+
+// Whether every eigenvalue of the symmetric part of S = R^T F lies in [lo, hi], per lane (S has
+// the singular values of F as eigenvalues): S - lo I and hi I - S positive definite.
+template <class T>
+[[gnu::always_inline]] inline void singularValuesWithinLanes(const Mat3Lanes<T>& R,
+                                                             const Mat3Lanes<T>& F, T lo, T hi,
+                                                             LaneMask<T>& within) {
+  Lanes<T> S[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      S[i][j] = R.a[0][i] * F.a[0][j] + R.a[1][i] * F.a[1][j] + R.a[2][i] * F.a[2][j];
+  Lanes<T> minus_lo[3][3], hi_minus[3][3];  // sym(S) - lo I and hi I - sym(S)
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const Lanes<T> sym = T(0.5) * (S[i][j] + S[j][i]);
+      minus_lo[i][j] = i == j ? sym - lo : sym;
+      hi_minus[i][j] = i == j ? hi - sym : -sym;
+    }
+  LaneMask<T> above_lo, below_hi;
+  positiveDefiniteLanes<T>(minus_lo, above_lo);
+  positiveDefiniteLanes<T>(hi_minus, below_hi);
+  within = above_lo & below_hi;
+}
+
+// The lanes' part of the return mapping: R_E set and true in the bit mask returned for each
+// particle whose singular values lie within [lo, hi], the rest left to the SVD.
+template <class T>
+[[gnu::always_inline]] inline unsigned polarWithinBounds(std::span<const int> ps,
+                                                         const Mat<3, T>* F_E, Mat<3, T>* R_E, T lo,
+                                                         T hi) {
+  Mat3Lanes<T> F, X;
+  loadLanes(F_E, ps, F);
+  X = F;
+  LaneMask<T> converged, within;
+  newtonPolarLanes(X, converged);
+  singularValuesWithinLanes(X, F, lo, hi, within);
+  within &= converged;
+  unsigned done = 0;
+  for (int l = 0; l < int(ps.size()); ++l)
+    if (within[l]) {
+      storeLane(X, l, R_E[ps[l]]);
+      done |= 1u << l;
+    }
+  return done;
+}
+
+template <class T>
+unsigned polarWithinBoundsBaseline(std::span<const int> ps, const Mat<3, T>* F_E, Mat<3, T>* R_E,
+                                   T lo, T hi) {
+  return polarWithinBounds(ps, F_E, R_E, lo, hi);
+}
+template <class T>
+SNOWSIM_TARGET_AVX2 unsigned polarWithinBoundsAvx2(std::span<const int> ps, const Mat<3, T>* F_E,
+                                                   Mat<3, T>* R_E, T lo, T hi) {
+  return polarWithinBounds(ps, F_E, R_E, lo, hi);
+}
+template <class T>
+SNOWSIM_TARGET_AVX512 unsigned polarWithinBoundsAvx512(std::span<const int> ps,
+                                                       const Mat<3, T>* F_E, Mat<3, T>* R_E, T lo,
+                                                       T hi) {
+  return polarWithinBounds(ps, F_E, R_E, lo, hi);
+}
+
+// Singular values outside their bounds: clamped through the SVD (eq. 11), V_E the starting guess.
+template <class T>
+T clampSingularValues(const SnowMaterial& m, Mat<3, T>& F_E, T J_P, Mat<3, T>& R_E,
+                      Mat<3, T>& V_E) {
+  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
   Mat<3, T> U;
-  Mat<3, T>& V = V_E;
   Vec<3, T> sigma;
-  signedSvdFrom<3, T>(F_E, U, sigma, V);
+  signedSvdFrom<3, T>(F_E, U, sigma, V_E);
   T J_trial = 1, J_clamped = 1;
   for (int a = 0; a < 3; ++a) {
     J_trial *= sigma[a];
     sigma[a] = std::clamp(sigma[a], lo, hi);  // eq. 11
     J_clamped *= sigma[a];
   }
-  F_E = U * sigma.asDiagonal() * V.transpose();
-  R_E = U * V.transpose();
+  F_E = U * sigma.asDiagonal() * V_E.transpose();
+  R_E = U * V_E.transpose();
   return J_P * J_trial / J_clamped;  // as in 2D
 }
 
-#define SNOWSIM_SNOW_MATERIAL(T)                                                           \
-  template LameOf<T> hardenedLame<T>(const SnowMaterial&, T);                              \
-  template Mat<2, T> polarRotation<2, T>(const Mat<2, T>&);                                \
-  template Mat<3, T> polarRotation<3, T>(const Mat<3, T>&);                                \
-  template void signedSvd<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);     \
-  template void signedSvd<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);     \
-  template void signedSvdFrom<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&); \
-  template void signedSvdFrom<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&); \
-  template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);        \
-  template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);        \
-  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);     \
-  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&, Mat<3, T>&);
+}  // namespace
+
+template <class T>
+void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                           Mat<3, T>* R_E, Mat<3, T>* V_E, VectorIsa isa) {
+  // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
+  // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
+  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
+  unsigned done = 0;
+  switch (isa) {
+    case VectorIsa::avx512:
+      done = polarWithinBoundsAvx512(ps, F_E, R_E, lo, hi);
+      break;
+    case VectorIsa::avx2:
+      done = polarWithinBoundsAvx2(ps, F_E, R_E, lo, hi);
+      break;
+    case VectorIsa::baseline:
+      done = polarWithinBoundsBaseline(ps, F_E, R_E, lo, hi);
+      break;
+  }
+  for (int l = 0; l < int(ps.size()); ++l) {
+    const int p = ps[l];
+    if (!(done >> l & 1)) J_P[p] = clampSingularValues(m, F_E[p], J_P[p], R_E[p], V_E[p]);
+  }
+}
+
+template <class T>
+T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
+                        Mat<3, T>& R_E, Mat<3, T>& V_E) {
+  const int first = 0;
+  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &V_E, vectorIsa());
+  return J_P;
+}
+
+#define SNOWSIM_SNOW_MATERIAL(T)                                                                   \
+  template LameOf<T> hardenedLame<T>(const SnowMaterial&, T);                                      \
+  template Mat<2, T> polarRotation<2, T>(const Mat<2, T>&);                                        \
+  template Mat<3, T> polarRotation<3, T>(const Mat<3, T>&);                                        \
+  template void signedSvd<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);             \
+  template void signedSvd<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);             \
+  template void signedSvdFrom<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);         \
+  template void signedSvdFrom<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);         \
+  template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);                \
+  template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);                \
+  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);             \
+  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&, Mat<3, T>&); \
+  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*,    \
+                                         T*, Mat<3, T>*, Mat<3, T>*, VectorIsa);
 SNOWSIM_SNOW_MATERIAL(double)
 SNOWSIM_SNOW_MATERIAL(float)
 #undef SNOWSIM_SNOW_MATERIAL

@@ -3,8 +3,10 @@
 // mapping that clamps the singular values of the elastic deformation gradient. Pure functions.
 #pragma once
 
+#include <span>
 #include <type_traits>
 
+#include "sim/core/lanes.h"
 #include "sim/core/math.h"
 
 namespace snowsim {
@@ -96,6 +98,13 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E);
+// The 3D one for particles ps (at most returnMappingLanes) of the arrays F_E, J_P, R_E and V_E,
+// with the results of the call above for each: the Newton iteration and the bounds test run a
+// particle per vector lane, compiled for isa (vectorIsa(); each build gives the same results).
+inline constexpr int returnMappingLanes = 8;
+template <class T>
+void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                           Mat<3, T>* R_E, Mat<3, T>* V_E, VectorIsa isa);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 template <class T>

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstddef>
 #include <limits>
+#include <span>
 #include <string_view>
 #include <tuple>
 #include <type_traits>
@@ -48,6 +49,9 @@ class ParticleGridSchedule final : public LoopRunner {
   using Position = Vec<D, Scalar>;
   using Fields = GridFields<D, Scalar>;
   static constexpr int drift_cells = Binning::drift_cells;
+  // The particles the particle pass hands over at once: the 3D return mapping runs them in vector
+  // lanes (sim/mpm/snow_material.h).
+  static constexpr int pass_batch = 8;
 
   // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
   template <class T>
@@ -91,10 +95,11 @@ class ParticleGridSchedule final : public LoopRunner {
   // The stages. scatter: f(p, partial grid) for every particle, each row into the partial grid
   // of its colour. updateNodes: the grid's mass, momentum (into fields.velocity) and force are the
   // sums of the partial grids, which it empties; then f(k) for each of those nodes.
-  // passOverParticles: f(p, measure) for every particle in sorted order, with the measure of its
-  // part (measures[part], which starts from Measure() each pass), returning the particle's share
-  // of a total that orderedSum() adds up chunk by chunk, the same on any thread count; each part
-  // then also checks that its particles stayed within their rows' cells.
+  // passOverParticles: f(batch, measure, shares) for every particle in sorted order, a batch of up
+  // to pass_batch consecutive ones at a time (std::span<const int>), with the measure of its part
+  // (measures[part], which starts from Measure() each pass); f sets shares[i], particle batch[i]'s
+  // share of a total that orderedSum() adds up chunk by chunk, the same on any thread count. Each
+  // part then also checks that its particles stayed within their rows' cells.
   template <class F>
   void scatter(F&& f);
   template <class F>
@@ -320,10 +325,17 @@ void ParticleGridSchedule<D, P>::passOverParticles(std::string_view stage,
     if constexpr (drift_cells > 0) row = binning_.rowCellsAt(chunkStart(first));
     for (int c = first; c < last; ++c) {
       Real sum = 0;
-      for (int o = chunkStart(c); o < chunkStart(c + 1); ++o) {
-        const int p = binning_.sorted(o);
-        sum += f(p, m);
-        if constexpr (drift_cells > 0) in_rows &= binning_.withinRowCells(o, x[p], row);
+      for (int o = chunkStart(c); o < chunkStart(c + 1); o += pass_batch) {
+        const int count = std::min(pass_batch, chunkStart(c + 1) - o);
+        int batch[pass_batch];
+        Real shares[pass_batch];
+        for (int i = 0; i < count; ++i) batch[i] = binning_.sorted(o + i);
+        f(std::span<const int>(batch, count), m, shares);
+        for (int i = 0; i < count; ++i) {
+          sum += shares[i];
+          if constexpr (drift_cells > 0)
+            in_rows &= binning_.withinRowCells(o + i, x[batch[i]], row);
+        }
       }
       chunk_sums_[c] = sum;
     }

@@ -4,7 +4,11 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
+#include <numeric>
 #include <random>
+#include <span>
+#include <vector>
 
 using namespace snowsim;
 
@@ -146,8 +150,9 @@ TEST(SnowMaterial, TwoDimensionalReturnMappingMatchesTheSvdDefinition) {
 // The 3D return mapping takes the polar rotation by Newton's iteration and skips the SVD when the
 // singular values are inside the bounds: on either path it must give what the SVD definition
 // gives, for unstrained, elastic (within bounds), plastic (beyond) and inverted F.
-TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
-  const SnowMaterial m;
+// What the 3D return mapping meets: unstrained, elastic (within bounds), plastic (beyond), near
+// the bounds and inverted F.
+static std::vector<Mat<3>> returnMappingCases(const SnowMaterial& m) {
   std::mt19937 random(9);
   std::normal_distribution<double> noise(0, 1);
   auto rotation = [&] {
@@ -169,6 +174,12 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
         Vec<3>(near_bounds(random), near_bounds(random), near_bounds(random)).asDiagonal() *
         rotation());
   cases.push_back(Vec<3>(1, 1, -0.5).asDiagonal());  // inverted
+  return cases;
+}
+
+TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
+  const SnowMaterial m;
+  const std::vector<Mat<3>> cases = returnMappingCases(m);
   int elastic = 0;
   for (const Mat<3>& F : cases) {
     Mat<3> F_E = F, R_E, V_E = Mat<3>::Identity();
@@ -179,6 +190,47 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
     }
   }
   EXPECT_GT(elastic, 200) << "the elastic path was exercised";
+}
+
+// The 3D return mapping runs eight particles in vector lanes: whatever batch a particle is in, and
+// on whichever build of the lanes, it must get what it gets alone on the baseline build, bit for
+// bit (each lane iterates until its own particle converges).
+template <class T>
+void expectBatchesMatchOneAtATime() {
+  const SnowMaterial m;
+  std::vector<Mat<3, T>> F;
+  for (const Mat<3>& c : returnMappingCases(m)) F.push_back(c.cast<T>());
+  const int n = int(F.size());
+  std::vector<Mat<3, T>> F_alone = F, R_alone(n), V_alone(n, Mat<3, T>::Identity());
+  std::vector<T> J_alone(n, T(0.8));
+  const VectorIsa best = vectorIsa();
+  vectorIsa() = VectorIsa::baseline;
+  for (int p = 0; p < n; ++p)
+    J_alone[p] = plasticReturnMappingJ<T>(m, F_alone[p], J_alone[p], R_alone[p], V_alone[p]);
+  vectorIsa() = best;
+  for (const VectorIsa isa : {VectorIsa::baseline, VectorIsa::avx2, VectorIsa::avx512}) {
+    if (isa > best) continue;
+    std::vector<Mat<3, T>> F_E = F, R_E(n), V_E(n, Mat<3, T>::Identity());
+    std::vector<T> J_P(n, T(0.8));
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), std::mt19937(int(isa)));
+    for (int first = 0, size = 1; first < n; first += size, size = size % 8 + 1) {
+      const std::span<const int> batch(order.data() + first, std::min(size, n - first));
+      plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), R_E.data(), V_E.data(), isa);
+    }
+    for (int p = 0; p < n; ++p) {
+      EXPECT_EQ(F_E[p], F_alone[p]) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(J_P[p], J_alone[p]) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(R_E[p], R_alone[p]) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(V_E[p], V_alone[p]) << "case " << p << ", build " << int(isa);
+    }
+  }
+}
+
+TEST(SnowMaterial, ReturnMappingInLanesMatchesOneAtATime) {
+  expectBatchesMatchOneAtATime<double>();
+  expectBatchesMatchOneAtATime<float>();
 }
 
 // The 3x3 SVD on what snow meets: near rotations (nearly equal singular values), stretches,

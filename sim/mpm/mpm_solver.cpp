@@ -518,10 +518,10 @@ void MpmSolver<D, T>::trialDeformation(int p, T dt) {
 template <int D, class T>
 template <class Transfer>
 void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
-  for (size_t first = 0; first < ps.size(); first += returnMappingLanes) {
+  for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> group =
-        ps.subspan(first, std::min<size_t>(returnMappingLanes, ps.size() - first));
-    T J_P_before[returnMappingLanes];
+        ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
+    T J_P_before[returnMappingBatch];
     for (size_t l = 0; l < group.size(); ++l) J_P_before[l] = particles_.J_P[group[l]];
     if constexpr (D == 2) {
       for (const int p : group)

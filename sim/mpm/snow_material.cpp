@@ -271,19 +271,25 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
   return J_P * (s0 * s1) / (c0 * c1);
 }
 
+// The 3D return mapping runs a particle per vector lane, eight at a time. The polar rotation by
+// Newton's iteration X <- (X + X^-T) / 2 (Higham 1986), started from F itself, squares the distance
+// of each singular value from 1 per iteration, so the few percent that snow's F_E strays from a
+// rotation take about four iterations to round-off; the particles whose singular values leave
+// their bounds take the warm-started Jacobi SVD, in lanes of their own. One particle's iteration is
+// a chain of dependent divisions and square roots; eight in lanes overlap their chains. Each lane
+// stops when its own iteration converges, so a particle's result does not depend on the others in
+// its batch. The helpers below are always inlined and local to this file: the calling convention
+// that -Wpsabi warns about for vectors passed by value never applies. (GCC warns where templates
+// are instantiated, at the end of the file: the pragma holds to there.)
+#pragma GCC diagnostic ignored "-Wpsabi"
 namespace {
 
-// The 3D return mapping runs a particle per vector lane: the polar rotation by Newton's iteration
-// X <- (X + X^-T) / 2 (Higham 1986), started from F itself, squares the distance of each singular
-// value from 1 per iteration, so the few percent that snow's F_E strays from a rotation take about
-// four iterations to round-off. One particle's iteration is a chain of dependent divisions; eight
-// in lanes overlap their chains. Each lane stops when its own iteration converges, so a particle's
-// result does not depend on the others in its batch.
 template <class T>
 using Lanes = typename Lanes8<T>::type;
 template <class T>
 using LaneMask = decltype(Lanes<T>{} > Lanes<T>{});
 constexpr int lanes = returnMappingLanes;
+#define SNOWSIM_LANES_INLINE [[gnu::always_inline]] inline
 
 // A 3x3 matrix per lane: a[i][j] holds entry (i, j) of every lane's matrix.
 template <class T>
@@ -291,161 +297,328 @@ struct Mat3Lanes {
   Lanes<T> a[3][3];
 };
 
-// Entry (i, j) of matrix ps[l] of M into lane l; lanes past the batch hold the identity.
 template <class T>
-[[gnu::always_inline]] inline void loadLanes(const Mat<3, T>* M, std::span<const int> ps,
-                                             Mat3Lanes<T>& out) {
+SNOWSIM_LANES_INLINE bool anyLane(const LaneMask<T>& mask) {
+  bool any = false;
+  for (int l = 0; l < lanes; ++l) any |= mask[l] != 0;
+  return any;
+}
+template <class T>
+SNOWSIM_LANES_INLINE Lanes<T> sqrtLanes(Lanes<T> a) {
+  for (int l = 0; l < lanes; ++l) a[l] = std::sqrt(a[l]);  // one instruction (-fno-math-errno)
+  return a;
+}
+template <class T>
+SNOWSIM_LANES_INLINE Lanes<T> absLanes(Lanes<T> a) {
+  return a < 0 ? -a : a;
+}
+template <class T>
+SNOWSIM_LANES_INLINE Lanes<T> dotLanes(const Lanes<T> (&a)[3], const Lanes<T> (&b)[3]) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+template <class T>
+SNOWSIM_LANES_INLINE void crossLanes(const Lanes<T> (&a)[3], const Lanes<T> (&b)[3],
+                                     Lanes<T> (&out)[3]) {
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    out[i] = a[j] * b[k] - a[k] * b[j];
+  }
+}
+// Column j of X as three lane vectors, and back.
+template <class T>
+SNOWSIM_LANES_INLINE void column(const Mat3Lanes<T>& X, int j, Lanes<T> (&out)[3]) {
+  for (int i = 0; i < 3; ++i) out[i] = X.a[i][j];
+}
+template <class T>
+SNOWSIM_LANES_INLINE void setColumn(Mat3Lanes<T>& X, int j, const Lanes<T> (&v)[3]) {
+  for (int i = 0; i < 3; ++i) X.a[i][j] = v[i];
+}
+// A B and A^T B.
+template <class T>
+SNOWSIM_LANES_INLINE Mat3Lanes<T> productLanes(const Mat3Lanes<T>& A, const Mat3Lanes<T>& B) {
+  Mat3Lanes<T> out;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      out.a[i][j] = A.a[i][0] * B.a[0][j] + A.a[i][1] * B.a[1][j] + A.a[i][2] * B.a[2][j];
+  return out;
+}
+template <class T>
+SNOWSIM_LANES_INLINE Mat3Lanes<T> transposeProductLanes(const Mat3Lanes<T>& A,
+                                                        const Mat3Lanes<T>& B) {
+  Mat3Lanes<T> out;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      out.a[i][j] = A.a[0][i] * B.a[0][j] + A.a[1][i] * B.a[1][j] + A.a[2][i] * B.a[2][j];
+  return out;
+}
+
+// Entry (i, j) of matrix ps[l] of M into lane l; lanes past ps hold the identity.
+template <class T>
+SNOWSIM_LANES_INLINE Mat3Lanes<T> loadLanes(const Mat<3, T>* M, std::span<const int> ps) {
   alignas(64) T entries[9][lanes];
   for (int l = 0; l < lanes; ++l)
     for (int e = 0; e < 9; ++e)
       entries[e][l] = l < int(ps.size()) ? M[ps[l]].data()[e] : T(e % 4 == 0);
+  Mat3Lanes<T> out;
   for (int j = 0; j < 3; ++j)
     for (int i = 0; i < 3; ++i) std::memcpy(&out.a[i][j], entries[i + 3 * j], sizeof(Lanes<T>));
+  return out;
 }
-
 template <class T>
-[[gnu::always_inline]] inline void storeLane(const Mat3Lanes<T>& X, int l, Mat<3, T>& out) {
+SNOWSIM_LANES_INLINE void storeLane(const Mat3Lanes<T>& X, int l, Mat<3, T>& out) {
   for (int j = 0; j < 3; ++j)
     for (int i = 0; i < 3; ++i) out(i, j) = X.a[i][j][l];
 }
 
-// The cofactor matrix det(X) X^-T, finite for singular X: its columns are the cross products of
-// X's other two columns.
+// Newton's polar iteration in every lane: true where it converged, X then the lane's rotation.
+// A lane converges when a step changes X by less than round-off's square root; it fails where
+// det X <= 0 (the polar factor would be a reflection) or it has not converged in eight steps.
 template <class T>
-[[gnu::always_inline]] inline void cofactorLanes(const Mat3Lanes<T>& X, Mat3Lanes<T>& C) {
-  for (int j = 0; j < 3; ++j) {
-    const int p = (j + 1) % 3, q = (j + 2) % 3;  // column j = column p x column q
-    for (int i = 0; i < 3; ++i) {
-      const int r = (i + 1) % 3, s = (i + 2) % 3;
-      C.a[i][j] = X.a[r][p] * X.a[s][q] - X.a[s][p] * X.a[r][q];
-    }
-  }
-}
-
-// Newton's polar iteration in every lane. A lane converges (true in `converged`, X its rotation)
-// when a step changes X by less than round-off's square root; it fails where det X <= 0 (the polar
-// factor would be a reflection) or it has not converged in eight steps.
-template <class T>
-[[gnu::always_inline]] inline void newtonPolarLanes(Mat3Lanes<T>& X, LaneMask<T>& converged) {
-  LaneMask<T> active = LaneMask<T>{} == 0;
-  converged = LaneMask<T>{};
+SNOWSIM_LANES_INLINE LaneMask<T> newtonPolarLanes(Mat3Lanes<T>& X) {
+  LaneMask<T> active = LaneMask<T>{} == 0, converged = {};
   for (int iteration = 0; iteration < 8; ++iteration) {
-    Mat3Lanes<T> C;
-    cofactorLanes(X, C);
-    const Lanes<T> det = X.a[0][0] * C.a[0][0] + X.a[1][0] * C.a[1][0] + X.a[2][0] * C.a[2][0];
+    // The cofactor matrix det(X) X^-T, finite for singular X: its columns are the cross products
+    // of X's other two columns.
+    Lanes<T> x[3][3], cofactor[3][3];
+    for (int j = 0; j < 3; ++j) column(X, j, x[j]);
+    for (int j = 0; j < 3; ++j) crossLanes<T>(x[(j + 1) % 3], x[(j + 2) % 3], cofactor[j]);
+    const Lanes<T> det = dotLanes<T>(x[0], cofactor[0]);
     active &= det > 0;  // false for NaN too
     const Lanes<T> half_inverse = T(0.5) / det;
     Lanes<T> change = {};
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        const Lanes<T> next = T(0.5) * X.a[i][j] + half_inverse * C.a[i][j];
-        const Lanes<T> step = next - X.a[i][j];
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        const Lanes<T> next = T(0.5) * x[j][i] + half_inverse * cofactor[j][i];
+        const Lanes<T> step = next - x[j][i];
         change += step * step;
-        X.a[i][j] = active ? next : X.a[i][j];
+        X.a[i][j] = active ? next : x[j][i];
       }
     // The next change would be about change^2: X is exact to round-off.
     const LaneMask<T> done = active & (change <= Tolerance<T>::newton);
     converged |= done;
     active &= ~done;
-    bool any = false;
-    for (int l = 0; l < lanes; ++l) any |= active[l] != 0;
-    if (!any) return;
+    if (!anyLane<T>(active)) break;
   }
+  return converged;
 }
 
-// Sylvester's criterion for the symmetric A: leading principal minors all positive. (Vectors are
-// passed by reference here: by value, they would change the baseline build's calling convention.)
+// Sylvester's criterion for the symmetric A: leading principal minors all positive.
 template <class T>
-[[gnu::always_inline]] inline void positiveDefiniteLanes(const Lanes<T> (&A)[3][3],
-                                                         LaneMask<T>& positive) {
+SNOWSIM_LANES_INLINE LaneMask<T> positiveDefiniteLanes(const Mat3Lanes<T>& M) {
+  const auto& A = M.a;
   const Lanes<T> minor2 = A[0][0] * A[1][1] - A[0][1] * A[1][0];
   const Lanes<T> det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
                        A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
                        A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
-  positive = (A[0][0] > 0) & (minor2 > 0) & (det > 0);
+  return (A[0][0] > 0) & (minor2 > 0) & (det > 0);
 }
 
 // Whether every eigenvalue of the symmetric part of S = R^T F lies in [lo, hi], per lane (S has
 // the singular values of F as eigenvalues): S - lo I and hi I - S positive definite.
 template <class T>
-[[gnu::always_inline]] inline void singularValuesWithinLanes(const Mat3Lanes<T>& R,
-                                                             const Mat3Lanes<T>& F, T lo, T hi,
-                                                             LaneMask<T>& within) {
-  Lanes<T> S[3][3];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      S[i][j] = R.a[0][i] * F.a[0][j] + R.a[1][i] * F.a[1][j] + R.a[2][i] * F.a[2][j];
-  Lanes<T> minus_lo[3][3], hi_minus[3][3];  // sym(S) - lo I and hi I - sym(S)
+SNOWSIM_LANES_INLINE LaneMask<T> singularValuesWithinLanes(const Mat3Lanes<T>& R,
+                                                           const Mat3Lanes<T>& F, T lo, T hi) {
+  const Mat3Lanes<T> S = transposeProductLanes(R, F);
+  Mat3Lanes<T> minus_lo, hi_minus;  // sym(S) - lo I and hi I - sym(S)
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      const Lanes<T> sym = T(0.5) * (S[i][j] + S[j][i]);
-      minus_lo[i][j] = i == j ? sym - lo : sym;
-      hi_minus[i][j] = i == j ? hi - sym : -sym;
+      const Lanes<T> sym = T(0.5) * (S.a[i][j] + S.a[j][i]);
+      minus_lo.a[i][j] = i == j ? sym - lo : sym;
+      hi_minus.a[i][j] = i == j ? hi - sym : -sym;
     }
-  LaneMask<T> above_lo, below_hi;
-  positiveDefiniteLanes<T>(minus_lo, above_lo);
-  positiveDefiniteLanes<T>(hi_minus, below_hi);
-  within = above_lo & below_hi;
+  return positiveDefiniteLanes(minus_lo) & positiveDefiniteLanes(hi_minus);
 }
 
-// The lanes' part of the return mapping: R_E set and true in the bit mask returned for each
-// particle whose singular values lie within [lo, hi], the rest left to the SVD.
+// Diagonalises the symmetric A in every lane by cyclic Jacobi rotations (Golub and Van Loan,
+// section 8.5), accumulating them into V: V^T A_in V = A_out. From a good guess (A nearly
+// diagonal) one or two sweeps finish it; from any start at most a handful. A lane skips a rotation
+// once its off-diagonal entry no longer changes the diagonal (|a_pq| <= 1e-16 sqrt(a_pp a_qq) for
+// the positive semi-definite A here); a sweep that rotates no lane ends them, and a lane whose
+// sweep rotated nothing is left as it is by the next.
 template <class T>
-[[gnu::always_inline]] inline unsigned polarWithinBounds(std::span<const int> ps,
-                                                         const Mat<3, T>* F_E, Mat<3, T>* R_E, T lo,
-                                                         T hi) {
-  Mat3Lanes<T> F, X;
-  loadLanes(F_E, ps, F);
-  X = F;
-  LaneMask<T> converged, within;
-  newtonPolarLanes(X, converged);
-  singularValuesWithinLanes(X, F, lo, hi, within);
-  within &= converged;
-  unsigned done = 0;
-  for (int l = 0; l < int(ps.size()); ++l)
-    if (within[l]) {
-      storeLane(X, l, R_E[ps[l]]);
-      done |= 1u << l;
+SNOWSIM_LANES_INLINE void jacobiEigenLanes(Mat3Lanes<T>& A, Mat3Lanes<T>& V) {
+  constexpr int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  constexpr int max_sweeps = 12;  // round-off is reached in under ten from any start
+  for (int sweep = 0; sweep < max_sweeps; ++sweep) {
+    LaneMask<T> rotated = {};
+    for (const auto& [p, q] : pairs) {
+      const Lanes<T> apq = A.a[p][q];
+      const LaneMask<T> rotate =
+          !(apq * apq <= Tolerance<T>::jacobi * absLanes<T>(A.a[p][p] * A.a[q][q]));
+      if (!anyLane<T>(rotate)) continue;
+      rotated |= rotate;
+      // The rotation that zeroes a_pq: tan of its angle t, the smaller root of
+      // t^2 + 2 theta t - 1 = 0 with theta = (a_qq - a_pp) / (2 a_pq).
+      const Lanes<T> theta = (A.a[q][q] - A.a[p][p]) / (2 * apq);
+      const Lanes<T> abs_theta = absLanes<T>(theta);
+      const Lanes<T> sign = theta < 0 ? Lanes<T>{} - 1 : Lanes<T>{} + 1;
+      const Lanes<T> t = abs_theta > Tolerance<T>::huge
+                             ? 1 / (2 * theta)
+                             : sign / (abs_theta + sqrtLanes<T>(theta * theta + 1));
+      const Lanes<T> c = 1 / sqrtLanes<T>(t * t + 1), s = t * c;
+      const int r = 3 - p - q;  // the third axis
+      const Lanes<T> arp = A.a[r][p], arq = A.a[r][q];
+      A.a[p][p] = rotate ? A.a[p][p] - t * apq : A.a[p][p];
+      A.a[q][q] = rotate ? A.a[q][q] + t * apq : A.a[q][q];
+      A.a[p][q] = A.a[q][p] = rotate ? Lanes<T>{} : apq;
+      A.a[r][p] = A.a[p][r] = rotate ? c * arp - s * arq : arp;
+      A.a[r][q] = A.a[q][r] = rotate ? s * arp + c * arq : arq;
+      for (int i = 0; i < 3; ++i) {
+        const Lanes<T> vp = V.a[i][p], vq = V.a[i][q];
+        V.a[i][p] = rotate ? c * vp - s * vq : vp;
+        V.a[i][q] = rotate ? s * vp + c * vq : vq;
+      }
     }
-  return done;
-}
-
-template <class T>
-unsigned polarWithinBoundsBaseline(std::span<const int> ps, const Mat<3, T>* F_E, Mat<3, T>* R_E,
-                                   T lo, T hi) {
-  return polarWithinBounds(ps, F_E, R_E, lo, hi);
-}
-template <class T>
-SNOWSIM_TARGET_AVX2 unsigned polarWithinBoundsAvx2(std::span<const int> ps, const Mat<3, T>* F_E,
-                                                   Mat<3, T>* R_E, T lo, T hi) {
-  return polarWithinBounds(ps, F_E, R_E, lo, hi);
-}
-template <class T>
-SNOWSIM_TARGET_AVX512 unsigned polarWithinBoundsAvx512(std::span<const int> ps,
-                                                       const Mat<3, T>* F_E, Mat<3, T>* R_E, T lo,
-                                                       T hi) {
-  return polarWithinBounds(ps, F_E, R_E, lo, hi);
-}
-
-// Singular values outside their bounds: clamped through the SVD (eq. 11), V_E the starting guess.
-template <class T>
-T clampSingularValues(const SnowMaterial& m, Mat<3, T>& F_E, T J_P, Mat<3, T>& R_E,
-                      Mat<3, T>& V_E) {
-  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
-  Mat<3, T> U;
-  Vec<3, T> sigma;
-  signedSvdFrom<3, T>(F_E, U, sigma, V_E);
-  T J_trial = 1, J_clamped = 1;
-  for (int a = 0; a < 3; ++a) {
-    J_trial *= sigma[a];
-    sigma[a] = std::clamp(sigma[a], lo, hi);  // eq. 11
-    J_clamped *= sigma[a];
+    if (!anyLane<T>(rotated)) return;
   }
-  F_E = U * sigma.asDiagonal() * V_E.transpose();
-  R_E = U * V_E.transpose();
-  return J_P * J_trial / J_clamped;  // as in 2D
 }
 
+template <class T>
+SNOWSIM_LANES_INLINE void normalizeLanes(Lanes<T> (&v)[3], Lanes<T> norm) {
+  for (int i = 0; i < 3; ++i) v[i] /= norm;
+}
+
+// The 3x3 SVD F = U diag(sigma) V^T in every lane, from the eigenvectors of F^T F found by Jacobi
+// rotations starting from the guess V (in/out): V the eigenvectors ordered by decreasing
+// eigenvalue, re-orthonormalised so it stays a rotation over many warm-started steps; then U by
+// Gram-Schmidt on the columns of F V, which stays orthonormal when singular values nearly
+// coincide; the last singular value takes the sign of det F.
+template <class T>
+SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes<T> (&sigma)[3],
+                                   Mat3Lanes<T>& V) {
+  Mat3Lanes<T> FV = productLanes(F, V);
+  Mat3Lanes<T> A = transposeProductLanes(FV, FV);  // V^T F^T F V, nearly diagonal for a good guess
+  jacobiEigenLanes(A, V);
+  // Decreasing eigenvalues; a swap of two columns negates one so that V stays a rotation.
+  auto order = [&](int i, int j) {
+    const LaneMask<T> swap = !(A.a[i][i] >= A.a[j][j]);
+    const Lanes<T> aii = A.a[i][i];
+    A.a[i][i] = swap ? A.a[j][j] : aii;
+    A.a[j][j] = swap ? aii : A.a[j][j];
+    for (int k = 0; k < 3; ++k) {
+      const Lanes<T> vi = V.a[k][i];
+      V.a[k][i] = swap ? V.a[k][j] : vi;
+      V.a[k][j] = swap ? -vi : V.a[k][j];
+    }
+  };
+  order(0, 1);
+  order(0, 2);
+  order(1, 2);
+  Lanes<T> v[3][3];
+  column(V, 0, v[0]);
+  column(V, 1, v[1]);
+  normalizeLanes<T>(v[0], sqrtLanes<T>(dotLanes<T>(v[0], v[0])));
+  const Lanes<T> along = dotLanes<T>(v[0], v[1]);
+  for (int i = 0; i < 3; ++i) v[1][i] -= along * v[0][i];
+  normalizeLanes<T>(v[1], sqrtLanes<T>(dotLanes<T>(v[1], v[1])));
+  crossLanes<T>(v[0], v[1], v[2]);
+  for (int j = 0; j < 3; ++j) setColumn(V, j, v[j]);
+  FV = productLanes(F, V);
+  Lanes<T> fv[3][3], u[3][3];
+  for (int j = 0; j < 3; ++j) column(FV, j, fv[j]);
+  sigma[0] = sqrtLanes<T>(dotLanes<T>(fv[0], fv[0]));
+  for (int i = 0; i < 3; ++i) u[0][i] = fv[0][i] / sigma[0];
+  const Lanes<T> along_u0 = dotLanes<T>(u[0], fv[1]);
+  for (int i = 0; i < 3; ++i) u[1][i] = fv[1][i] - along_u0 * u[0][i];
+  sigma[1] = sqrtLanes<T>(dotLanes<T>(u[1], u[1]));
+  const LaneMask<T> rank_two = sigma[1] > Tolerance<T>::rank;
+  if (!anyLane<T>(~rank_two)) {
+    normalizeLanes<T>(u[1], sigma[1]);
+  } else {
+    // Rank one where !rank_two: u1 any unit vector orthogonal to u0, (-y, x, 0) or, for u0 near
+    // the z axis, (0, -z, y), normalised.
+    const Lanes<T> small = absLanes<T>(u[0][2]) * T(1e-3);
+    const LaneMask<T> near_z = (absLanes<T>(u[0][0]) <= small) & (absLanes<T>(u[0][1]) <= small);
+    Lanes<T> w[3] = {near_z ? Lanes<T>{} : -u[0][1], near_z ? -u[0][2] : u[0][0],
+                     near_z ? u[0][1] : Lanes<T>{}};
+    normalizeLanes<T>(w, sqrtLanes<T>(dotLanes<T>(w, w)));
+    for (int i = 0; i < 3; ++i) u[1][i] = rank_two ? u[1][i] / sigma[1] : w[i];
+  }
+  crossLanes<T>(u[0], u[1], u[2]);
+  sigma[2] = dotLanes<T>(u[2], fv[2]);
+  for (int j = 0; j < 3; ++j) setColumn(U, j, u[j]);
+  // F = 0: U = I, sigma = 0.
+  const LaneMask<T> zero = sigma[0] == 0;
+  if (anyLane<T>(zero)) {
+    for (int i = 0; i < 3; ++i) {
+      sigma[i] = zero ? Lanes<T>{} : sigma[i];
+      for (int j = 0; j < 3; ++j) U.a[i][j] = zero ? Lanes<T>{} + T(i == j) : U.a[i][j];
+    }
+  }
+}
+
+// Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
+// (eq. 11), V_E the starting guess; R_E = U V^T, J_P' = J_P J_trial / J_clamped (as in 2D).
+template <class T>
+SNOWSIM_LANES_INLINE void clampSingularValuesLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                                                   Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+  const Mat3Lanes<T> F = loadLanes(F_E, ps);
+  Mat3Lanes<T> U, V = loadLanes(V_E, ps);
+  Lanes<T> sigma[3];
+  svdLanes(F, U, sigma, V);
+  const Lanes<T> J_trial = sigma[0] * sigma[1] * sigma[2];
+  for (int a = 0; a < 3; ++a)
+    sigma[a] = sigma[a] < lo ? Lanes<T>{} + lo : hi < sigma[a] ? Lanes<T>{} + hi : sigma[a];
+  const Lanes<T> J_clamped = sigma[0] * sigma[1] * sigma[2];
+  Mat3Lanes<T> clamped_U, V_transposed;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      clamped_U.a[i][j] = U.a[i][j] * sigma[j];
+      V_transposed.a[i][j] = V.a[j][i];
+    }
+  const Mat3Lanes<T> new_F_E = productLanes(clamped_U, V_transposed);
+  const Mat3Lanes<T> rotation = productLanes(U, V_transposed);
+  for (int l = 0; l < int(ps.size()); ++l) {
+    const int p = ps[l];
+    storeLane(new_F_E, l, F_E[p]);
+    storeLane(rotation, l, R_E[p]);
+    storeLane(V, l, V_E[p]);
+    J_P[p] = J_P[p] * J_trial[l] / J_clamped[l];
+  }
+}
+
+// The whole return mapping of ps (at most returnMappingBatch): Newton and the bounds test eight
+// at a time; those outside their bounds gathered into lanes of their own for the SVD.
+template <class T>
+SNOWSIM_LANES_INLINE void returnMappingLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                                             Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+  int beyond[returnMappingBatch];
+  int count = 0;
+  for (size_t first = 0; first < ps.size(); first += lanes) {
+    const std::span<const int> group =
+        ps.subspan(first, std::min<size_t>(lanes, ps.size() - first));
+    const Mat3Lanes<T> F = loadLanes(F_E, group);
+    Mat3Lanes<T> X = F;
+    const LaneMask<T> within = newtonPolarLanes(X) & singularValuesWithinLanes(X, F, lo, hi);
+    for (int l = 0; l < int(group.size()); ++l) {
+      if (within[l])
+        storeLane(X, l, R_E[group[l]]);  // F_E and J_P stay as they are
+      else
+        beyond[count++] = group[l];
+    }
+  }
+  for (int first = 0; first < count; first += lanes)
+    clampSingularValuesLanes(std::span<const int>(beyond + first, std::min(lanes, count - first)),
+                             F_E, J_P, R_E, V_E, lo, hi);
+}
+
+template <class T>
+void returnMappingBaseline(std::span<const int> ps, Mat<3, T>* F_E, T* J_P, Mat<3, T>* R_E,
+                           Mat<3, T>* V_E, T lo, T hi) {
+  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+}
+template <class T>
+SNOWSIM_TARGET_AVX2 void returnMappingAvx2(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                                           Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+}
+template <class T>
+SNOWSIM_TARGET_AVX512 void returnMappingAvx512(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                                               Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+}
+
+#undef SNOWSIM_LANES_INLINE
 }  // namespace
 
 template <class T>
@@ -454,22 +627,15 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3
   // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
   // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
   const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
-  unsigned done = 0;
   switch (isa) {
     case VectorIsa::avx512:
-      done = polarWithinBoundsAvx512(ps, F_E, R_E, lo, hi);
-      break;
+      return returnMappingAvx512(ps, F_E, J_P, R_E, V_E, lo, hi);
     case VectorIsa::avx2:
-      done = polarWithinBoundsAvx2(ps, F_E, R_E, lo, hi);
-      break;
+      return returnMappingAvx2(ps, F_E, J_P, R_E, V_E, lo, hi);
     case VectorIsa::baseline:
-      done = polarWithinBoundsBaseline(ps, F_E, R_E, lo, hi);
       break;
   }
-  for (int l = 0; l < int(ps.size()); ++l) {
-    const int p = ps[l];
-    if (!(done >> l & 1)) J_P[p] = clampSingularValues(m, F_E[p], J_P[p], R_E[p], V_E[p]);
-  }
+  returnMappingBaseline(ps, F_E, J_P, R_E, V_E, lo, hi);
 }
 
 template <class T>

@@ -50,8 +50,8 @@ class ParticleGridSchedule final : public LoopRunner {
   using Fields = GridFields<D, Scalar>;
   static constexpr int drift_cells = Binning::drift_cells;
   // The particles the particle pass hands over at once: the 3D return mapping runs them in vector
-  // lanes (sim/mpm/snow_material.h).
-  static constexpr int pass_batch = 8;
+  // lanes, and those that need an SVD in lanes of their own (sim/mpm/snow_material.h).
+  static constexpr int pass_batch = 64;
 
   // Grid-sized, but only the nodes near the snow are ever touched, and only they take memory.
   template <class T>

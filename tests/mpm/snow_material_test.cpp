@@ -192,9 +192,10 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
   EXPECT_GT(elastic, 200) << "the elastic path was exercised";
 }
 
-// The 3D return mapping runs eight particles in vector lanes: whatever batch a particle is in, and
-// on whichever build of the lanes, it must get what it gets alone on the baseline build, bit for
-// bit (each lane iterates until its own particle converges).
+// The 3D return mapping runs particles eight at a time in vector lanes, and those beyond their
+// bounds gathered into lanes of their own: whatever batch a particle is in, and on whichever build
+// of the lanes, it must get what it gets alone on the baseline build, bit for bit (each lane
+// iterates until its own particle converges).
 template <class T>
 void expectBatchesMatchOneAtATime() {
   const SnowMaterial m;
@@ -215,8 +216,9 @@ void expectBatchesMatchOneAtATime() {
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), std::mt19937(int(isa)));
-    for (int first = 0, size = 1; first < n; first += size, size = size % 8 + 1) {
-      const std::span<const int> batch(order.data() + first, std::min(size, n - first));
+    constexpr int sizes[] = {1, 5, 8, 13, returnMappingBatch, 30, 2};
+    for (int first = 0, k = 0; first < n; first += sizes[k], k = (k + 1) % std::size(sizes)) {
+      const std::span<const int> batch(order.data() + first, std::min(sizes[k], n - first));
       plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), R_E.data(), V_E.data(), isa);
     }
     for (int p = 0; p < n; ++p) {

@@ -198,7 +198,10 @@ void replayFrames(const std::string& dir, int count, RenderSink& sink) {
 }
 
 // run, or resume from `saved` (the scene and state of a checkpoint of options.out).
-void run(const RunOptions& options, const SavedRun* saved = nullptr) {
+// alike: set false once an error could be one rank's alone; until then every rank meets the same
+// errors at the same point (the scene, the settings, the output directory's agreed refusal, the
+// solver's set-up).
+void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
   // stderr goes nowhere (an error they meet, rank 0 meets too).
   RankExchange& world = worldExchange();
@@ -246,6 +249,7 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads, world);
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
+    alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
     if (saved) simulation->loadState(saved->solver_state, saved->file);
     if (options.ply && writes)
       sinks.push_back(
@@ -396,16 +400,20 @@ void run(const RunOptions& options, const SavedRun* saved = nullptr) {
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene
 // file no longer needed (the checkpoint holds the scene as run).
 // Across ranks, an error one rank meets alone (rank 0's full disk) would leave the others waiting
-// in their next exchange: it ends every rank, with the exit code of one process. A signal needs
-// none of this, as every rank stops at the same step.
+// in their next exchange: it ends every rank, with the exit code of one process. One that every
+// rank meets alike ends each normally, rank 0 with its message and exit code, which mpirun
+// returns, the others quietly: MPI_Abort could end the launcher before it forwards the message.
+// A signal needs none of this, as every rank stops at the same step.
 void runOnEveryRank(const RunOptions& options, const SavedRun* saved = nullptr) {
+  bool alike = true;
   try {
-    run(options, saved);
+    run(options, saved, alike);
   } catch (const Interrupted&) {
     throw;
   } catch (const std::exception& e) {
     RankExchange& world = worldExchange();
-    if (world.ranks() == 1) throw;
+    if (world.ranks() == 1 || (alike && world.rank() == 0)) throw;
+    if (alike) std::exit(0);  // MPI_Finalize waits for rank 0 there
     world.abortAll(reportFailure(e));
   }
 }

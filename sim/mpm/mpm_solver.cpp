@@ -505,7 +505,9 @@ void MpmSolver<D, T>::trialDeformation(int p, T dt) {
   // unrolled sum is, a + (b + c) in 3D, so the results are Eigen's bit for bit.
   const M G = M::Identity() + dt * particles_.C[p];
   M trial;
+#pragma GCC unroll 3  // GCC keeps these loops of three otherwise: twice the instructions
   for (int j = 0; j < D; ++j)
+#pragma GCC unroll 3
     for (int i = 0; i < D; ++i) {
       if constexpr (D == 2)
         trial(i, j) = G(i, 0) * F_E(0, j) + G(i, 1) * F_E(1, j);

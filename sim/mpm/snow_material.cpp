@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 namespace snowsim {
@@ -352,16 +351,20 @@ SNOWSIM_LANES_INLINE Mat3Lanes<T> transposeProductLanes(const Mat3Lanes<T>& A,
   return out;
 }
 
-// Entry (i, j) of matrix ps[l] of M into lane l; lanes past ps hold the identity.
+// Entry (i, j) of matrix ps[l] of M into lane l; lanes past ps hold the identity. Each lane vector
+// is built from its eight scalars: no branch per entry, and no narrow stores read back wide.
 template <class T>
 SNOWSIM_LANES_INLINE Mat3Lanes<T> loadLanes(const Mat<3, T>* M, std::span<const int> ps) {
-  alignas(64) T entries[9][lanes];
-  for (int l = 0; l < lanes; ++l)
-    for (int e = 0; e < 9; ++e)
-      entries[e][l] = l < int(ps.size()) ? M[ps[l]].data()[e] : T(e % 4 == 0);
+  static constexpr T identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const T* from[lanes];
+  for (int l = 0; l < lanes; ++l) from[l] = l < int(ps.size()) ? M[ps[l]].data() : identity;
   Mat3Lanes<T> out;
   for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) std::memcpy(&out.a[i][j], entries[i + 3 * j], sizeof(Lanes<T>));
+    for (int i = 0; i < 3; ++i) {
+      const int e = i + 3 * j;  // column-major
+      out.a[i][j] = Lanes<T>{from[0][e], from[1][e], from[2][e], from[3][e],
+                             from[4][e], from[5][e], from[6][e], from[7][e]};
+    }
   return out;
 }
 template <class T>

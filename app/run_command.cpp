@@ -198,16 +198,39 @@ void replayFrames(const std::string& dir, int count, RenderSink& sink) {
 }
 
 // run, or resume from `saved` (the scene and state of a checkpoint of options.out).
-// alike: set false once an error could be one rank's alone; until then every rank meets the same
-// errors at the same point (the scene, the settings, the output directory's agreed refusal, the
-// solver's set-up).
+// The scene as every rank read it: a rank that could not read it (no shared file system) refuses
+// the run on every rank, with its message.
+Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
+  Scene scene;
+  std::string unread;
+  try {
+    scene = resolvedScene(options);
+  } catch (const InputError& e) {
+    unread = e.what();
+  }
+  const std::vector<std::string> messages = world.allGather(unread);
+  for (size_t rank = 0; rank < messages.size(); ++rank)
+    if (!messages[rank].empty())
+      throw InputError(rank == 0 ? messages[rank]
+                                 : "MPI rank " + std::to_string(rank) + ": " + messages[rank]);
+  return scene;
+}
+
+// alike: set false once an error could be one rank's alone; until then an InputError is met by
+// every rank at the same point (the scene, the settings, the output directory's agreed refusal,
+// the solver's set-up).
 void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
   // stderr goes nowhere (an error they meet, rank 0 meets too).
   RankExchange& world = worldExchange();
   const bool writes = world.rank() == 0;
-  if (!writes && !std::freopen("/dev/null", "w", stderr)) throw InputError("no /dev/null");
-  Scene scene = saved ? saved->scene : resolvedScene(options);
+  if (!writes && !std::freopen("/dev/null", "w", stderr)) {
+    alike = false;
+    throw InputError("no /dev/null");
+  }
+  Scene scene =
+      saved ? saved->scene
+            : (world.ranks() > 1 ? sceneOnEveryRank(options, world) : resolvedScene(options));
   const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
@@ -220,7 +243,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
-  if (options.estimate_only) return estimateOnly(scene, options.threads, world);
+  if (options.estimate_only) {
+    alike = false;  // it steps
+    return estimateOnly(scene, options.threads, world);
+  }
   const std::string video_name = scene.name + ".mp4";
   if (saved && options.render.mp4 && !options.render.png)
     throw InputError(saved->file +
@@ -234,7 +260,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
         prepareOutputDirectory(options.out);
       else
         prepareRunDirectory(options.out, video_name, options.overwrite);
-    } catch (const InputError& e) {
+    } catch (const std::exception& e) {  // a file system error too: the others wait below
       refused = e.what();
     }
   if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
@@ -248,8 +274,9 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   {
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads, world);
+    alike = false;  // each rank gathers its share, reads its share of a checkpoint; rank 0 alone
+                    // opens the outputs
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
-    alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
     if (saved) simulation->loadState(saved->solver_state, saved->file);
     if (options.ply && writes)
       sinks.push_back(
@@ -412,8 +439,9 @@ void runOnEveryRank(const RunOptions& options, const SavedRun* saved = nullptr) 
     throw;
   } catch (const std::exception& e) {
     RankExchange& world = worldExchange();
-    if (world.ranks() == 1 || (alike && world.rank() == 0)) throw;
-    if (alike) std::exit(0);  // MPI_Finalize waits for rank 0 there
+    const bool every_rank = alike && dynamic_cast<const InputError*>(&e);
+    if (world.ranks() == 1 || (every_rank && world.rank() == 0)) throw;
+    if (every_rank) std::exit(0);  // MPI_Finalize waits for rank 0 there
     world.abortAll(reportFailure(e));
   }
 }

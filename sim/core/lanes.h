@@ -12,8 +12,9 @@ namespace snowsim {
 #define SNOWSIM_FLATTEN [[gnu::flatten]]
 #endif
 
-// The builds beside the baseline (x86-64-v2). AVX-512 for its 32 registers, with 256-bit vectors:
-// some processors slow down for 512-bit ones.
+// The builds beside the baseline (x86-64-v2). AVX-512 for its 32 registers, its loops vectorised
+// 256 bits wide (some processors slow down for 512-bit vectors); a 512-bit lane type, eight
+// doubles, still takes one 512-bit register there.
 #define SNOWSIM_TARGET_AVX2 [[gnu::target("avx2")]]
 #define SNOWSIM_TARGET_AVX512 [[gnu::target("avx512f,avx512vl,prefer-vector-width=256")]]
 

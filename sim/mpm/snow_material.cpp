@@ -355,6 +355,7 @@ SNOWSIM_LANES_INLINE Mat3Lanes<T> transposeProductLanes(const Mat3Lanes<T>& A,
 // is built from its eight scalars: no branch per entry, and no narrow stores read back wide.
 template <class T>
 SNOWSIM_LANES_INLINE Mat3Lanes<T> loadLanes(const Mat<3, T>* M, std::span<const int> ps) {
+  static_assert(lanes == 8, "a lane vector is built from eight scalars below");
   static constexpr T identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   const T* from[lanes];
   for (int l = 0; l < lanes; ++l) from[l] = l < int(ps.size()) ? M[ps[l]].data() : identity;
@@ -374,7 +375,7 @@ SNOWSIM_LANES_INLINE void storeLane(const Mat3Lanes<T>& X, int l, Mat<3, T>& out
 }
 
 // Newton's polar iteration in every lane: true where it converged, X then the lane's rotation.
-// A lane converges when a step changes X by less than round-off's square root; it fails where
+// A lane converges when a step's squared change falls below Tolerance::newton; it fails where
 // det X <= 0 (the polar factor would be a reflection) or it has not converged in eight steps.
 template <class T>
 SNOWSIM_LANES_INLINE LaneMask<T> newtonPolarLanes(Mat3Lanes<T>& X) {
@@ -583,8 +584,8 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(std::span<const int> ps, Mat<
 // The whole return mapping of ps (at most returnMappingBatch): Newton and the bounds test eight
 // at a time; those outside their bounds gathered into lanes of their own for the SVD.
 template <class T>
-SNOWSIM_LANES_INLINE void returnMappingLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                                             Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+SNOWSIM_LANES_INLINE void mapInLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
+                                     Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
   int beyond[returnMappingBatch];
   int count = 0;
   for (size_t first = 0; first < ps.size(); first += lanes) {
@@ -608,17 +609,17 @@ SNOWSIM_LANES_INLINE void returnMappingLanes(std::span<const int> ps, Mat<3, T>*
 template <class T>
 void returnMappingBaseline(std::span<const int> ps, Mat<3, T>* F_E, T* J_P, Mat<3, T>* R_E,
                            Mat<3, T>* V_E, T lo, T hi) {
-  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
 }
 template <class T>
 SNOWSIM_TARGET_AVX2 void returnMappingAvx2(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
                                            Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
-  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
 }
 template <class T>
 SNOWSIM_TARGET_AVX512 void returnMappingAvx512(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
                                                Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
-  returnMappingLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
 }
 
 #undef SNOWSIM_LANES_INLINE
@@ -630,15 +631,21 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3
   // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
   // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
   const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
-  switch (isa) {
-    case VectorIsa::avx512:
-      return returnMappingAvx512(ps, F_E, J_P, R_E, V_E, lo, hi);
-    case VectorIsa::avx2:
-      return returnMappingAvx2(ps, F_E, J_P, R_E, V_E, lo, hi);
-    case VectorIsa::baseline:
-      break;
+  for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
+    const std::span<const int> batch =
+        ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
+    switch (isa) {
+      case VectorIsa::avx512:
+        returnMappingAvx512(batch, F_E, J_P, R_E, V_E, lo, hi);
+        break;
+      case VectorIsa::avx2:
+        returnMappingAvx2(batch, F_E, J_P, R_E, V_E, lo, hi);
+        break;
+      case VectorIsa::baseline:
+        returnMappingBaseline(batch, F_E, J_P, R_E, V_E, lo, hi);
+        break;
+    }
   }
-  returnMappingBaseline(ps, F_E, J_P, R_E, V_E, lo, hi);
 }
 
 template <class T>

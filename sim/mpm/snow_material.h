@@ -98,9 +98,10 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E);
-// The 3D one for particles ps (at most returnMappingBatch) of the arrays F_E, J_P, R_E and V_E,
-// with the results of the call above for each: a particle per vector lane, returnMappingLanes at
-// a time, compiled for isa (vectorIsa(); each build gives the same results).
+// The 3D one for particles ps of the arrays F_E, J_P, R_E and V_E, with the results of the call
+// above for each: a particle per vector lane, returnMappingLanes at a time, and those of each
+// returnMappingBatch beyond their bounds gathered for the SVD; compiled for isa (vectorIsa();
+// each build gives the same results).
 inline constexpr int returnMappingLanes = 8;
 inline constexpr int returnMappingBatch = 64;
 template <class T>

@@ -8,6 +8,7 @@
 #include <numeric>
 #include <random>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 using namespace snowsim;
@@ -233,6 +234,46 @@ void expectBatchesMatchOneAtATime() {
 TEST(SnowMaterial, ReturnMappingInLanesMatchesOneAtATime) {
   expectBatchesMatchOneAtATime<double>();
   expectBatchesMatchOneAtATime<float>();
+}
+
+// Degenerate F (rank one, rank two, zero) takes the lanes' SVD path with its special cases: the
+// result must still be a rotation R_E, an F_E whose singular values lie within the bounds, and a
+// finite J_P, in either precision, whatever the batch.
+template <class T>
+void expectDegenerateMappedSanely() {
+  const SnowMaterial m;
+  const Vec<3, T> u(T(0.6), T(0), T(0.8)), v(T(0), T(1), T(0)), w(T(0), T(0), T(1));
+  const std::vector<Mat<3, T>> cases = {
+      Mat<3, T>::Zero(),
+      T(1.2) * u * v.transpose(),                      // rank one
+      T(0.9) * w * w.transpose(),                      // rank one along z
+      u * v.transpose() + T(0.5) * w * u.transpose(),  // rank two
+      T(0.97) * Mat<3, T>::Identity(),                 // elastic, in the same batch
+  };
+  const int n = int(cases.size());
+  std::vector<Mat<3, T>> F_E = cases, R_E(n), V_E(n, Mat<3, T>::Identity());
+  std::vector<T> J_P(n, T(0.8));
+  std::vector<int> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), R_E.data(), V_E.data(), vectorIsa());
+  const double tolerance = std::is_same_v<T, float> ? 1e-5 : 1e-12;
+  for (int p = 0; p < n; ++p) {
+    EXPECT_TRUE(std::isfinite(J_P[p])) << "case " << p;
+    EXPECT_LT((R_E[p].transpose() * R_E[p] - Mat<3, T>::Identity()).norm(), tolerance)
+        << "case " << p;
+    EXPECT_NEAR(R_E[p].determinant(), 1, tolerance) << "case " << p;
+    const Eigen::JacobiSVD<Mat<3, T>> svd(F_E[p]);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(svd.singularValues()[a], T(1 - m.theta_c) - tolerance) << "case " << p;
+      EXPECT_LE(svd.singularValues()[a], T(1 + m.theta_s) + tolerance) << "case " << p;
+    }
+  }
+  EXPECT_EQ(J_P[0], 0) << "F = 0: all of it plastic";
+}
+
+TEST(SnowMaterial, DegenerateDeformationMapsToRotationAndBounds) {
+  expectDegenerateMappedSanely<double>();
+  expectDegenerateMappedSanely<float>();
 }
 
 // The 3x3 SVD on what snow meets: near rotations (nearly equal singular values), stretches,

@@ -161,8 +161,10 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
   V x_before[most];
   int count = 0;
   for (const int p : batch) {
-    if (params_.auto_sleep.enabled && sleepsThrough<Kernel>(p)) continue;
-    x_before[count] = particles_.x[p];
+    if (params_.auto_sleep.enabled) {
+      if (sleepsThrough<Kernel>(p)) continue;
+      x_before[count] = particles_.x[p];  // read only by restOrStir
+    }
     awake[count++] = p;
     gatherVelocityOn<Transfer, Kernel>(isa, p);  // 8 (gathered first: 7 needs grad v)
     trialDeformation(p, dt);                     // 7

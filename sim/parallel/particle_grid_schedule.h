@@ -277,13 +277,13 @@ void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
   team_.forEachPart("grid update", [&](int part) {
     const auto start = parallel_ ? Clock::now() : Clock::time_point();
     const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
-    for (int line = first; line < last; ++line) {
-      const int k = box.flatIndex(grid_, line * width);
-      for (int i = 0; i < width; ++i) {  // x is the grid's contiguous axis
-        sumPartialGrids(k + i, fields);
-        f(k + i);
-      }
-    }
+    for (int line = first; line < last; ++line)
+      binning_.forUpdatedRuns(line, [&](int k, int count) {
+        for (int i = 0; i < count; ++i) {  // x is the grid's contiguous axis
+          sumPartialGrids(k + i, fields);
+          f(k + i);
+        }
+      });
     if (parallel_) line_shares_.record(part, last - first, secondsSince(start));
   });
 }
@@ -291,6 +291,8 @@ void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
 template <int D, class P>
 template <class F, class Between>
 void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f, Between&& between) {
+  // Every node of the box, not only the runs near this rank's particles: between() may give mass
+  // to nodes that only the neighbour ranks' particles reach.
   const NodeBox<D>& box = binning_.updated();
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;

@@ -17,6 +17,9 @@ RowBinning<D>::RowBinning(const GridGeometry<D>& grid, int particles)
     block_count_ *= blocks_[a];
   }
   row_start_.assign(block_count_ / blocks_[0] + 1, 0);
+  node_blocks_ = blocks_ + IVec<D>::Constant(2);
+  reached_.assign(node_blocks_.prod(), 0);
+  staged_.assign(reached_.size(), 0);
 }
 
 template <int D>
@@ -144,6 +147,59 @@ void RowBinning<D>::findActiveNodes() {
     updated_.lo = updated_.lo.cwiseMin(previous.lo);
     updated_.hi = updated_.hi.cwiseMax(previous.hi);
   }
+  findReachedNodeBlocks();
+}
+
+template <int D>
+void RowBinning<D>::findReachedNodeBlocks() {
+  // What the last grid stage reached stays to be zeroed by the next one.
+  if (staged_is_reached_) reached_.swap(staged_);
+  staged_is_reached_ = false;
+  std::fill(reached_.begin(), reached_.end(), 0);
+  const IVec<D> first = binned_first_block_, last = binned_last_block_;
+  if ((last.array() < first.array()).any()) return;  // no particles
+  IVec<D> stride;
+  stride[0] = 1;
+  for (int a = 1; a < D; ++a) stride[a] = stride[a - 1] * node_blocks_[a - 1];
+  const auto countsOf = [&](int range) {
+    return &range_count_[static_cast<size_t>(range) * block_count_];
+  };
+  // Block b holding particles marks node block b + 1 ...
+  for (int row = 0; row < rows(); ++row)
+    forBlocksOfRowInBox(row, first, last, [&](int flat, int length, IVec<D> block) {
+      for (int b = flat; b < flat + length; ++b, ++block[0]) {
+        bool held = false;
+        for (int range = 0; range < parts(); ++range)
+          held = held || ((block.array() >= range_first_block_[range].array()).all() &&
+                          (block.array() <= range_last_block_[range].array()).all() &&
+                          countsOf(range)[b] > 0);
+        if (held) reached_[(block + IVec<D>::Ones()).dot(stride)] = 1;
+      }
+    });
+  // ... then each mark spreads to its neighbours along each axis in turn, within the node blocks
+  // first .. last + 2.
+  const IVec<D> lo = first, extent = last - first + IVec<D>::Constant(3);
+  for (int axis = 0; axis < D; ++axis) {
+    const int lines = extent.prod() / extent[axis];
+    for (int line = 0; line < lines; ++line) {
+      int start = 0;
+      for (int a = 0, rest = line; a < D; ++a) {
+        if (a == axis) continue;
+        start += (lo[a] + rest % extent[a]) * stride[a];
+        rest /= extent[a];
+      }
+      start += lo[axis] * stride[axis];
+      unsigned char before = 0;
+      for (int i = 0; i < extent[axis]; ++i) {
+        unsigned char& here = reached_[start + i * stride[axis]];
+        const unsigned char next =
+            i + 1 < extent[axis] ? reached_[start + (i + 1) * stride[axis]] : 0;
+        const unsigned char was = here;
+        here = before | here | next;
+        before = was;
+      }
+    }
+  }
 }
 
 template <int D>
@@ -229,6 +285,9 @@ void RowBinning<D>::loadState(StateReader& in) {
       if (box->lo[a] < 0 || box->hi[a] < 0 || box->lo[a] > grid_.nodes[a] ||
           box->hi[a] > grid_.nodes[a])
         in.fail("the active grid nodes");
+  // Where the particles reach is not stored: every node block of the box until the next binning.
+  std::fill(reached_.begin(), reached_.end(), 1);
+  staged_is_reached_ = true;
 }
 
 template class RowBinning<2>;

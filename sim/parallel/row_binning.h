@@ -7,6 +7,7 @@
 // way). The parts of a team take consecutive rows.
 #pragma once
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -98,7 +99,16 @@ class RowBinning {
   // covers; the grid stages after it, the active box alone (gridStageDone()).
   const NodeBox<D>& active() const { return active_; }
   const NodeBox<D>& updated() const { return updated_; }
-  void gridStageDone() { updated_ = active_; }
+  void gridStageDone() {
+    updated_ = active_;
+    staged_is_reached_ = true;
+  }
+  // Within the updated box, finer: f(k, count) for the runs of `count` consecutive nodes from flat
+  // index k, along line `line` of the box (its lines along x in flatIndex order), that lie in a
+  // block of nodes the particles' blocks reach now or reached at the last grid stage. The box's
+  // other nodes are zero and stay so unvisited: a spreading snow's bounding box is mostly air.
+  template <class F>
+  void forUpdatedRuns(int line, F&& f) const;
 
  private:
   void findActiveNodes();
@@ -107,6 +117,12 @@ class RowBinning {
   // the row misses the box.
   template <class F>
   void forBlocksOfRowInBox(int row, const IVec<D>& lo, const IVec<D>& hi, F&& f) const;
+  // The blocks of nodes within reach of the blocks holding particles (reached_).
+  void findReachedNodeBlocks();
+  // The block of nodes of storage coordinate s along an axis. Node blocks sit one block lower
+  // than the particles' blocks, so that block b's particles reach node blocks b .. b + 2: nodes
+  // c - 1 - drift_cells .. c + 2 + drift_cells of its cells c, and the ghost nodes at the edges.
+  int nodeBlockOf(int s) const { return (s - grid_.ghost + block_cells) / block_cells; }
   int parts() const { return static_cast<int>(part_rows_.size()) - 1; }
   int rows() const { return static_cast<int>(row_start_.size()) - 1; }
 
@@ -128,6 +144,45 @@ class RowBinning {
   bool must_bin_ = true;
   long binnings_ = 0;
   NodeBox<D> active_, updated_;
+  // Per block of nodes (node_blocks_ along each axis, first axis fastest): 1 where the particles
+  // of the last binning reach (reached_), where they reached at the last grid stage (staged_,
+  // read only while !staged_is_reached_: a binning since that stage).
+  IVec<D> node_blocks_;
+  std::vector<unsigned char> reached_, staged_;
+  bool staged_is_reached_ = true;
 };
+
+template <int D>
+template <class F>
+void RowBinning<D>::forUpdatedRuns(int line, F&& f) const {
+  const NodeBox<D>& box = updated_;
+  const int width = box.hi[0] - box.lo[0];
+  int row = 0;  // the flat index of the line's first node block
+  for (int a = 1, rest = line, weight = node_blocks_[0]; a < D; ++a) {
+    const int extent = box.hi[a] - box.lo[a];
+    row += nodeBlockOf(box.lo[a] + rest % extent) * weight;
+    rest /= extent;
+    weight *= node_blocks_[a];
+  }
+  const int k0 = box.flatIndex(grid_, line * width);
+  const auto reached = [&](int s) {
+    const int b = row + nodeBlockOf(s);
+    return reached_[b] || (!staged_is_reached_ && staged_[b]);
+  };
+  int run = -1;  // the open run's first node, or -1
+  for (int s = box.lo[0]; s < box.hi[0];) {
+    // The nodes of s's block within the box, [s, end).
+    const int end =
+        std::min(box.hi[0], (nodeBlockOf(s) + 1) * block_cells + grid_.ghost - block_cells);
+    if (reached(s)) {
+      if (run < 0) run = s;
+    } else if (run >= 0) {
+      f(k0 + run - box.lo[0], s - run);
+      run = -1;
+    }
+    s = end;
+  }
+  if (run >= 0) f(k0 + run - box.lo[0], box.hi[0] - run);
+}
 
 }  // namespace snowsim

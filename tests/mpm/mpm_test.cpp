@@ -350,6 +350,57 @@ TEST(Mpm, TheGridKeepsNoMassWhereTheSnowWas) {
   EXPECT_NEAR(gridMass(), particle_mass, 1e-12 * particle_mass);
 }
 
+// Two balls far apart, one still, one thrown across the domain: the grid stage visits only the
+// blocks of nodes near the snow, not the whole box around both balls, and must still zero those
+// the thrown ball leaves. After every step the grid holds exactly the particles' mass, and a node
+// without mass has no velocity.
+template <int D>
+void expectNoStaleNodesBetweenTwoBalls() {
+  Json j = baseScene();
+  j["dimension"] = D;
+  j["grid"]["cells"] = D == 2 ? Json{48, 24} : Json{48, 24, 24};
+  j["particles_per_cell"] = D == 2 ? 4 : 8;
+  j["gravity"] = D == 2 ? Json{0, 0} : Json{0, 0, 0};
+  const Json still = D == 2 ? Json{0.05, 0.05} : Json{0.05, 0.05, 0.05};
+  const Json thrown = D == 2 ? Json{0.1, 0.18} : Json{0.1, 0.18, 0.18};
+  j["bodies"] = {{{"shape", "ball"}, {"center", still}, {"radius", 0.025}},
+                 {{"shape", "ball"},
+                  {"center", thrown},
+                  {"radius", 0.025},
+                  {"velocity", D == 2 ? Json{4, 0} : Json{4, 0, 0}}}};
+  auto s = makeSolver<D>(j);
+  Real particle_mass = 0;
+  for (const Real m : s.particles().mass) particle_mass += m;
+  const auto expectNoStaleNode = [&](int step) {
+    Real grid_mass = 0;
+    for (size_t k = 0; k < s.fields().mass.size(); ++k) {
+      grid_mass += s.fields().mass[k];
+      if (s.fields().mass[k] == 0)
+        ASSERT_EQ(s.fields().velocity[k], Vec<D>::Zero())
+            << D << "D, step " << step << ", node " << k;
+    }
+    ASSERT_NEAR(grid_mass, particle_mass, 1e-12 * particle_mass) << D << "D, step " << step;
+  };
+  for (int step = 0; step < 120; ++step) {
+    s.step(0.0005);  // 0.2 of a cell per step at 4 m/s: about 24 cells in all
+    expectNoStaleNode(step);
+  }
+  // A jump of 8 cells in one pass (the public stages do not check the step): every block of
+  // nodes the ball reached before is left at once.
+  s.updateParticles(0.02);
+  s.step(0.0001);
+  expectNoStaleNode(121);
+  Real leftmost = 1;
+  for (int p = 0; p < s.particles().size(); ++p)
+    if (s.particles().body[p] == 1) leftmost = std::min(leftmost, Real(s.particles().x[p][0]));
+  EXPECT_GT(leftmost, 0.1 + 20 * s.grid().h) << "the thrown ball left its first blocks behind";
+}
+
+TEST(Mpm, TheGridKeepsNoMassOrVelocityBetweenSeparateBalls) {
+  expectNoStaleNodesBetweenTwoBalls<2>();
+  expectNoStaleNodesBetweenTwoBalls<3>();
+}
+
 // 2D bins the particles anew once one has moved more than a cell (drift_cells,
 // sim/parallel/row_binning.h) beyond its row's cells, and not before. A ball translating along y,
 // sampled 2 x 2 per cell (a quarter and three quarters into each cell), must be binned anew each

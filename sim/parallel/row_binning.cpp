@@ -130,7 +130,9 @@ void RowBinning<D>::findActiveNodes() {
   }
   binned_first_block_ = first_block;
   binned_last_block_ = last_block;
-  const NodeBox<D> previous = active_;
+  // What the grid holds: the last grid stage's box, or, with no grid stage since the last
+  // binning, the box that stage was to update (which covers it).
+  const NodeBox<D> previous = staged_is_reached_ ? active_ : updated_;
   // A particle of cell c reaches nodes c-1 .. c+2 with either kernel, and may move drift_cells
   // before the next binning; two more on each side hold particles just outside the domain, which
   // the edge blocks keep.
@@ -179,6 +181,19 @@ void RowBinning<D>::findReachedNodeBlocks() {
   // ... then each mark spreads to its neighbours along each axis in turn, within the node blocks
   // first .. last + 2.
   const IVec<D> lo = first, extent = last - first + IVec<D>::Constant(3);
+  if constexpr (drift_cells > 0) {
+    // Between binnings a row's particles may move anywhere along x within the binning's box
+    // (rowCellsAt): the whole row along x.
+    for (int line = 0; line < extent.prod() / extent[0]; ++line) {
+      int start = lo[0];
+      for (int a = 1, rest = line; a < D; ++a) {
+        start += (lo[a] + rest % extent[a]) * stride[a];
+        rest /= extent[a];
+      }
+      unsigned char* row = &reached_[start];
+      if (std::find(row, row + extent[0], 1) != row + extent[0]) std::fill_n(row, extent[0], 1);
+    }
+  }
   for (int axis = 0; axis < D; ++axis) {
     const int lines = extent.prod() / extent[axis];
     for (int line = 0; line < lines; ++line) {

@@ -121,7 +121,8 @@ class RowBinning {
   void findReachedNodeBlocks();
   // The block of nodes of storage coordinate s along an axis. Node blocks sit one block lower
   // than the particles' blocks, so that block b's particles reach node blocks b .. b + 2: nodes
-  // c - 1 - drift_cells .. c + 2 + drift_cells of its cells c, and the ghost nodes at the edges.
+  // c - 1 - drift_cells .. c + 2 + drift_cells of its cells c, and the ghost nodes at the edges
+  // (along x with drift_cells > 0, the whole row: see findReachedNodeBlocks).
   int nodeBlockOf(int s) const { return (s - grid_.ghost + block_cells) / block_cells; }
   int parts() const { return static_cast<int>(part_rows_.size()) - 1; }
   int rows() const { return static_cast<int>(row_start_.size()) - 1; }

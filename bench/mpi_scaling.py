@@ -25,7 +25,9 @@ def run(args, ranks, scale, duration, out, ply):
     command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks),
                os.path.join(args.build, "app", "snowsim"), "run", args.scene, "-o", out,
                "--scale", str(scale), "--set", "time.duration=%g" % duration,
-               "--no-png", "--no-mp4", "--threads", str(args.threads)]
+               "--no-png", "--no-mp4", "--threads", str(args.threads),
+               # every particle awake: each rank's whole share of the work, every step
+               "--set", "mpm.auto_sleep.enabled=false"]
     if not ply:
         command.append("--no-ply")
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -37,16 +37,13 @@ void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<
   const int n = particles_;
   const int rows = this->rows();
   const T inv_h = T(1 / grid_.h);
-  const auto countsOf = [&](int range) {
-    return &range_count_[static_cast<size_t>(range) * block_count_];
-  };
   // Counting sort, each part on one contiguous range of particle indices: count per block, a
   // prefix sum over (block, range) gives each range its place in each block, each range places
   // its particles. A stable sort: its result does not depend on how the particles were split.
   // A range's counts are zero outside the box of blocks its particles were in, which is all
   // that is cleared and summed: the snow's blocks, not the domain's.
   team.forEachPart("bin: count", [&](int r) {
-    int* count = countsOf(r);
+    int* count = &range_count_[rangeOffset(r)];
     for (int row = 0; row < rows; ++row)
       forBlocksOfRowInBox(
           row, range_first_block_[r], range_last_block_[r],
@@ -79,18 +76,16 @@ void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<
       lo = lo.cwiseMin(range_first_block_[range]);
       hi = hi.cwiseMax(range_last_block_[range]);
     }
-    int* cursor = &range_cursor_[static_cast<size_t>(r) * block_count_];
+    int* cursor = &range_cursor_[rangeOffset(r)];
     int placed = 0;
     for (int row = 0; row < rows; ++row) {
       if (r == 0) row_start_[row] = placed;
       forBlocksOfRowInBox(row, lo, hi, [&](int first, int length, IVec<D> block) {
         for (int b = first; b < first + length; ++b, ++block[0])
           for (int range = 0; range < ranges; ++range) {
-            if ((block.array() < range_first_block_[range].array()).any() ||
-                (block.array() > range_last_block_[range].array()).any())
-              continue;  // outside its box: none of its particles
+            if (!inRangeBox(range, block)) continue;  // none of its particles
             if (range == r) cursor[b] = placed;
-            placed += countsOf(range)[b];
+            placed += range_count_[rangeOffset(range) + b];
           }
       });
     }
@@ -163,47 +158,40 @@ void RowBinning<D>::findReachedNodeBlocks() {
   IVec<D> stride;
   stride[0] = 1;
   for (int a = 1; a < D; ++a) stride[a] = stride[a - 1] * node_blocks_[a - 1];
-  const auto countsOf = [&](int range) {
-    return &range_count_[static_cast<size_t>(range) * block_count_];
-  };
   // Block b holding particles marks node block b + 1 ...
   for (int row = 0; row < rows(); ++row)
     forBlocksOfRowInBox(row, first, last, [&](int flat, int length, IVec<D> block) {
       for (int b = flat; b < flat + length; ++b, ++block[0]) {
         bool held = false;
         for (int range = 0; range < parts(); ++range)
-          held = held || ((block.array() >= range_first_block_[range].array()).all() &&
-                          (block.array() <= range_last_block_[range].array()).all() &&
-                          countsOf(range)[b] > 0);
+          held = held || (inRangeBox(range, block) && range_count_[rangeOffset(range) + b] > 0);
         if (held) reached_[(block + IVec<D>::Ones()).dot(stride)] = 1;
       }
     });
   // ... then each mark spreads to its neighbours along each axis in turn, within the node blocks
-  // first .. last + 2.
+  // first .. last + 2, whose lines along an axis start at lineStart(axis, line).
   const IVec<D> lo = first, extent = last - first + IVec<D>::Constant(3);
+  const auto lineStart = [&](int axis, int line) {
+    int start = lo[axis] * stride[axis];
+    for (int a = 0, rest = line; a < D; ++a) {
+      if (a == axis) continue;
+      start += (lo[a] + rest % extent[a]) * stride[a];
+      rest /= extent[a];
+    }
+    return start;
+  };
   if constexpr (drift_cells > 0) {
     // Between binnings a row's particles may move anywhere along x within the binning's box
     // (rowCellsAt): the whole row along x.
     for (int line = 0; line < extent.prod() / extent[0]; ++line) {
-      int start = lo[0];
-      for (int a = 1, rest = line; a < D; ++a) {
-        start += (lo[a] + rest % extent[a]) * stride[a];
-        rest /= extent[a];
-      }
-      unsigned char* row = &reached_[start];
+      unsigned char* row = &reached_[lineStart(0, line)];
       if (std::find(row, row + extent[0], 1) != row + extent[0]) std::fill_n(row, extent[0], 1);
     }
   }
   for (int axis = 0; axis < D; ++axis) {
     const int lines = extent.prod() / extent[axis];
     for (int line = 0; line < lines; ++line) {
-      int start = 0;
-      for (int a = 0, rest = line; a < D; ++a) {
-        if (a == axis) continue;
-        start += (lo[a] + rest % extent[a]) * stride[a];
-        rest /= extent[a];
-      }
-      start += lo[axis] * stride[axis];
+      const int start = lineStart(axis, line);
       unsigned char before = 0;
       for (int i = 0; i < extent[axis]; ++i) {
         unsigned char& here = reached_[start + i * stride[axis]];

@@ -124,6 +124,13 @@ class RowBinning {
   // c - 1 - drift_cells .. c + 2 + drift_cells of its cells c, and the ghost nodes at the edges
   // (along x with drift_cells > 0, the whole row: see findReachedNodeBlocks).
   int nodeBlockOf(int s) const { return (s - grid_.ghost + block_cells) / block_cells; }
+  // Where range r's counts and cursors start in range_count_ and range_cursor_; whether block
+  // coordinates `block` lie in the box of r's particles (outside it its counts are stale).
+  size_t rangeOffset(int r) const { return static_cast<size_t>(r) * block_count_; }
+  bool inRangeBox(int r, const IVec<D>& block) const {
+    return (block.array() >= range_first_block_[r].array()).all() &&
+           (block.array() <= range_last_block_[r].array()).all();
+  }
   int parts() const { return static_cast<int>(part_rows_.size()) - 1; }
   int rows() const { return static_cast<int>(row_start_.size()) - 1; }
 
@@ -172,9 +179,9 @@ void RowBinning<D>::forUpdatedRuns(int line, F&& f) const {
   };
   int run = -1;  // the open run's first node, or -1
   for (int s = box.lo[0]; s < box.hi[0];) {
-    // The nodes of s's block within the box, [s, end).
-    const int end =
-        std::min(box.hi[0], (nodeBlockOf(s) + 1) * block_cells + grid_.ghost - block_cells);
+    // The nodes of s's block within the box, [s, end): the next block starts at node
+    // nodeBlockOf(s) * block_cells (storage coordinate + ghost).
+    const int end = std::min(box.hi[0], nodeBlockOf(s) * block_cells + grid_.ghost);
     if (reached(s)) {
       if (run < 0) run = s;
     } else if (run >= 0) {

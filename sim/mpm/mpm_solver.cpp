@@ -64,7 +64,10 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);
-  if (params_.auto_sleep.enabled) particles_.calm_steps.assign(particles_.size(), 0);
+  if (params_.auto_sleep.enabled) {
+    particles_.calm_steps.assign(particles_.size(), 0);
+    schedule_.keepStillBlocks();
+  }
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
@@ -126,8 +129,15 @@ void MpmSolver<D, T>::stepWith(T dt) {
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !slabs_.distributed(), [&] {
     // 1, 3: mass, momentum and forces to the grid.
-    schedule_.scatter(
-        [&](int p, PartialGrid& g) { scatterParticleOn<Transfer, Kernel>(isa, p, g, dt); });
+    const auto scatterOne = [&](int p, PartialGrid& g) {
+      scatterParticleOn<Transfer, Kernel>(isa, p, g, dt);
+    };
+    if (params_.auto_sleep.enabled)  // resting snow's momentum is dt times its stress's share
+      schedule_.scatter(
+          scatterOne, [&](int p) { return stillness(p); },
+          [&](int p, PartialGrid& g) { scatterParticleOn<Transfer, Kernel>(isa, p, g, T(1)); }, dt);
+    else
+      schedule_.scatter(scatterOne);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     const auto updateNode = [&](int k) {
       velocityFromMomentum<Transfer>(k);
@@ -192,7 +202,10 @@ bool MpmSolver<D, T>::sleepsThrough(int p) {
   // Asleep: it scattered its mass and its stress, both unchanged while it sleeps; it has no
   // velocity to gather and no deformation to update while its stencil rests.
   const V& x = particles_.x[p];
-  if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) return true;
+  if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) {
+    calm = params_.auto_sleep.steps + 1;  // slept through a step: see stillness()
+    return true;
+  }
   calm = 0;  // wakes, and moves this very step
   return false;
 }
@@ -666,6 +679,7 @@ void MpmSolver<D, T>::updateGridVelocities(Real dt) {
 template <int D, class T>
 void MpmSolver<D, T>::updateParticles(Real dt) {
   part_measures_.resize(schedule_.prepare());
+  schedule_.forgetStillBlocks();  // a pass no scatter with stillness sees
   const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
     schedule_.passOverParticles("move particles", particles_.x, part_measures_,

@@ -52,6 +52,9 @@ class MpmSolver final : public Solver<D> {
   const std::vector<T>& plasticJ() const { return particles_.J_P; }
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
   LameOf<T> lame(int p) const { return particles_.lame[p]; }
+  // Auto-sleep: how many particle scatters this process's still blocks added, kept, instead of
+  // scattering again (not checkpointed: counted from construction or resume).
+  long keptScatters() const { return schedule_.keptScatters(); }
   // Auto-sleep: whether particle p (in the order of particles()) is asleep after the last step.
   bool asleep(int p) const {
     return params_.auto_sleep.enabled && particles_.calm_steps[p] >= params_.auto_sleep.steps;
@@ -175,6 +178,14 @@ class MpmSolver final : public Solver<D> {
   bool sleepsThrough(int p);
   template <class Kernel>
   void restOrStir(int p, const V& x_before);
+  // For the scatter (ParticleGridSchedule::scatter): 0 while particle p moves; 1 once it fell
+  // asleep (no velocity, no affine velocity, a deformation that stays); 2 once it also slept
+  // through the last particle pass, so that nothing of it changed since the last scatter.
+  // calm_steps counts to the sleep steps while it rests awake, and is one more once it slept.
+  int stillness(int p) const {
+    const int calm = particles_.calm_steps[p], steps = params_.auto_sleep.steps;
+    return calm > steps ? 2 : calm == steps ? 1 : 0;
+  }
   // Auto-sleep: whether a node of the stencil at x moves faster than the sleep speed, and whether
   // a moving collider is within a cell of x.
   template <class Kernel>

@@ -2,9 +2,10 @@
 // physics hands each stage a per-particle or per-node function, and this schedule decides which
 // thread runs it on which particles and nodes (sim/parallel/row_binning.h), in an order that
 // gives the same sums on any thread count. Each row of particles scatters into the partial grid
-// of its colour; a node of a partial grid sums one row's particles in sorted order, and the grid
-// sums the partial grids in colour order: the rows need no order among them, and the results are
-// bit-identical on any thread count.
+// of its colour; a node of a partial grid sums one row's particles in sorted order (or the sums a
+// block of still particles kept, sim/parallel/still_blocks.h), and the grid sums the partial
+// grids in colour order: the rows need no order among them, and the results are bit-identical on
+// any thread count.
 #pragma once
 
 #include <omp.h>
@@ -14,6 +15,7 @@
 #include <chrono>
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <span>
 #include <string_view>
 #include <tuple>
@@ -26,6 +28,7 @@
 #include "sim/io/checkpoint.h"
 #include "sim/parallel/loop_runner.h"
 #include "sim/parallel/row_binning.h"
+#include "sim/parallel/still_blocks.h"
 #include "sim/parallel/team.h"
 #include "sim/parallel/work_shares.h"
 #include "sim/parallel/zero_page_allocator.h"
@@ -102,6 +105,38 @@ class ParticleGridSchedule final : public LoopRunner {
   // part then also checks that its particles stayed within their rows' cells.
   template <class F>
   void scatter(F&& f);
+  // From now on, the scatter with stillness keeps what blocks of still particles scattered (3D
+  // only: see below).
+  void keepStillBlocks() {
+    if constexpr (drift_cells == 0) {
+      if (still_) return;
+      still_ = std::make_unique<StillBlocks<D, PartialGrid, Scalar>>(
+          grid_, binning_.blocks(), Binning::block_cells, force_field_);
+      still_scratch_.resize(Binning::colours);
+      for (PartialGrid& g : still_scratch_) resizePartialGrid(g);
+    }
+  }
+  // What the still blocks kept no longer holds: the particles changed outside a step (a particle
+  // pass run alone).
+  void forgetStillBlocks() {
+    if (still_) still_->forgetAll();
+  }
+  // The particles' scatters that still blocks added, kept, rather than made again, over this
+  // schedule's steps.
+  long keptScatters() const {
+    long kept = 0;
+    for (const long k : kept_scatters_) kept += k;
+    return kept;
+  }
+  // The scatter of snow of which some rests (sim/parallel/still_blocks.h). stillness(p): 0 if
+  // particle p moves; 1 if it is still, its scatter depending on the step only through a momentum
+  // in proportion to `scale`, which unit(p, partial grid) scatters at scale 1; 2 if, moreover,
+  // nothing of it changed since the last scatter. A block of still particles adds what it
+  // scattered at unit scale, kept from the first step all its particles were still; the others
+  // scatter with f. Without keepStillBlocks(), and in 2D, whose rows are binned only now and
+  // then, every particle scatters with f.
+  template <class F, class Stillness, class Unit>
+  void scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale);
   template <class F>
   void updateNodes(Fields& fields, F&& f);
   // updateNodes with between() run on the calling thread once every node is summed and before f
@@ -145,6 +180,7 @@ class ParticleGridSchedule final : public LoopRunner {
     in.value(stored_step_);
     in.value(steps_);
     unsummed_scatter_ = false;
+    forgetStillBlocks();
   }
 
   // How many times the particles were binned into rows. 2D: again whenever one had moved more
@@ -177,6 +213,11 @@ class ParticleGridSchedule final : public LoopRunner {
     constexpr size_t widest = widestElement(static_cast<typename P::ElementTypes*>(nullptr));
     spare_.resize((particles_ * widest + sizeof(SpareUnit) - 1) / sizeof(SpareUnit));
   }
+  void resizePartialGrid(PartialGrid& g) const {
+    g.mass.resize(grid_.nodeCount());  // zero, untouched
+    g.momentum.resize(grid_.nodeCount());
+    if (force_field_) g.force.resize(grid_.nodeCount());
+  }
   // Zero over the updated nodes: only a scatter no grid stage followed needs it.
   void emptyPartialGrids();
   void sumPartialGrids(int k, Fields& fields);
@@ -194,6 +235,12 @@ class ParticleGridSchedule final : public LoopRunner {
   int threads_;
   std::vector<PartialGrid> partial_;  // one per colour
   Binning binning_;
+  // Made by keepStillBlocks(): what still blocks scattered, and per colour a grid they scatter
+  // into alone, empty between two blocks.
+  std::unique_ptr<StillBlocks<D, PartialGrid, Scalar>> still_;
+  std::vector<PartialGrid> still_scratch_;
+  std::vector<long> kept_scatters_;  // per part
+  bool force_field_;
   // The work is cut into parts, one per thread. In the scatter a part has consecutive rows; the
   // particle pass cuts the sorted order at the same shares, so the particles a thread writes in
   // one stage are mostly the ones it reads in the next, from its own cache. Each part's share
@@ -251,6 +298,42 @@ void ParticleGridSchedule<D, P>::scatter(F&& f) {
       PartialGrid& g = partial_[binning_.rowColour(row)];
       for (int o = binning_.rowStart(row); o < binning_.rowStart(row + 1); ++o)
         f(binning_.sorted(o), g);
+    }
+  });
+}
+
+template <int D, class P>
+template <class F, class Stillness, class Unit>
+void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale) {
+  if (!still_) return scatter(f);
+  const StageClock::Scope time = timeStage("scatter");
+  team_.forEachPart("scatter", [&](int part) {
+    const auto [first, last] = binning_.partRows(part);
+    for (int row = first; row < last; ++row) {
+      PartialGrid& g = partial_[binning_.rowColour(row)];
+      binning_.forBlocksOfRow(row, [&](int block, int begin, int end) {
+        if (begin == end) return;
+        int least = 2;  // the least stillness of the block's particles
+        for (int o = begin; o < end && least > 0; ++o)
+          least = std::min(least, stillness(binning_.sorted(o)));
+        if (least == 0 || !still_->mayKeep(block, end - begin)) {
+          still_->forget(block);
+          for (int o = begin; o < end; ++o) f(binning_.sorted(o), g);
+          return;
+        }
+        // Unchanged since the scatter it kept: the same particles, as none has moved, if there
+        // are as many. (A particle that woke and fell asleep again within one pass has
+        // stillness 1: with the sleep steps at 1 it may have moved.)
+        if (least == 1 || !still_->holds(block, end - begin)) {
+          // Rows of one colour reach no common node: they share its scratch grid.
+          PartialGrid& scratch = still_scratch_[binning_.rowColour(row)];
+          for (int o = begin; o < end; ++o) unit(binning_.sorted(o), scratch);
+          still_->keep(block, end - begin, scratch);
+        } else {
+          kept_scatters_[part] += end - begin;
+        }
+        still_->add(block, g, scale);
+      });
     }
   });
 }
@@ -398,15 +481,12 @@ ParticleGridSchedule<D, P>::ParticleGridSchedule(const GridGeometry<D>& grid, in
       particles_(particles),
       parallel_(particles >= parallel_min_particles),
       threads_(threads > 0 ? threads : omp_get_max_threads()),
-      binning_(grid, particles) {
+      binning_(grid, particles),
+      force_field_(force_field) {
   resizeSpare();
   chunk_sums_.resize((particles + chunk - 1) / chunk);
   partial_.resize(Binning::colours);
-  for (PartialGrid& g : partial_) {
-    g.mass.resize(grid.nodeCount());  // zero, untouched
-    g.momentum.resize(grid.nodeCount());
-    if (force_field) g.force.resize(grid.nodeCount());
-  }
+  for (PartialGrid& g : partial_) resizePartialGrid(g);
   prepare();
 }
 
@@ -416,6 +496,7 @@ void ParticleGridSchedule<D, P>::resize(const std::vector<Position>& x) {
   particles_ = particles;
   binning_.resize(particles);
   binning_.bin(team_, particle_shares_, x);
+  forgetStillBlocks();
   resizeSpare();
   chunk_sums_.assign((particles + chunk - 1) / chunk, 0);
   binned_since_stored_ = true;
@@ -442,6 +523,7 @@ template <int D, class P>
 inline int ParticleGridSchedule<D, P>::prepare() {
   team_.configure(parallel_ ? threads_ : 1, parallel_);
   const int parts = this->parts();
+  if (static_cast<int>(kept_scatters_.size()) < parts) kept_scatters_.resize(parts, 0);
   if (particle_shares_.parts() == parts) return parts;
   // The first step, or another thread count.
   binning_.setParts(parts);

@@ -17,6 +17,7 @@ RowBinning<D>::RowBinning(const GridGeometry<D>& grid, int particles)
     block_count_ *= blocks_[a];
   }
   row_start_.assign(block_count_ / blocks_[0] + 1, 0);
+  block_start_.assign(block_count_, 0);
   node_blocks_ = blocks_ + IVec<D>::Constant(2);
   reached_.assign(node_blocks_.prod(), 0);
   staged_.assign(reached_.size(), 0);
@@ -81,12 +82,14 @@ void RowBinning<D>::bin(Team& team, const WorkShares& shares, const std::vector<
     for (int row = 0; row < rows; ++row) {
       if (r == 0) row_start_[row] = placed;
       forBlocksOfRowInBox(row, lo, hi, [&](int first, int length, IVec<D> block) {
-        for (int b = first; b < first + length; ++b, ++block[0])
+        for (int b = first; b < first + length; ++b, ++block[0]) {
+          if (r == 0) block_start_[b] = placed;
           for (int range = 0; range < ranges; ++range) {
             if (!inRangeBox(range, block)) continue;  // none of its particles
             if (range == r) cursor[b] = placed;
             placed += range_count_[rangeOffset(range) + b];
           }
+        }
       });
     }
     for (int p = shares.start(r, n), end = shares.start(r + 1, n); p < end; ++p)

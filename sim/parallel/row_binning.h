@@ -66,6 +66,19 @@ class RowBinning {
   int rowStart(int row) const { return row_start_[row]; }
   int sorted(int o) const { return order_[o]; }
   int rowColour(int row) const;
+  // f(block, begin, end) for the blocks of row `row` that the last binning's box holds, along x:
+  // the flat block index (first axis fastest) and its particles' sorted places [begin, end). Only
+  // after bin() in this process (a checkpoint does not hold the blocks' places).
+  template <class F>
+  void forBlocksOfRow(int row, F&& f) const {
+    const int row_end = row_start_[row + 1];
+    if (row_start_[row] == row_end) return;  // a row with particles lies in the box
+    const int first = row * blocks_[0] + binned_first_block_[0];
+    const int last = row * blocks_[0] + binned_last_block_[0];
+    for (int b = first; b <= last; ++b)
+      f(b, block_start_[b], b < last ? block_start_[b + 1] : row_end);
+  }
+  const IVec<D>& blocks() const { return blocks_; }
   // After the particles were stored in the sorted order: place o holds particle o.
   void storedInOrder(int o) { order_[o] = o; }
 
@@ -139,6 +152,9 @@ class RowBinning {
   IVec<D> blocks_;
   int block_count_ = 0;
   std::vector<int> row_start_;  // particles of row r: order_[row_start_[r] .. [r + 1])
+  // Where each block's particles start in the sorted order; set for the blocks of the last
+  // binning's box only.
+  std::vector<int> block_start_;
   std::vector<int> order_;
   std::vector<int> particle_block_;  // per stored particle, bin()'s scratch
   std::vector<int> part_rows_;       // part t scatters rows part_rows_[t] .. [t + 1]

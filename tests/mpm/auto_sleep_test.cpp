@@ -210,9 +210,13 @@ TEST(AutoSleep, StillBlocksHoldTheBallWhereTheAwakePileDoes) {
 
 // A kept scatter is the scatter made afresh, to round-off: the grid after a step in which the
 // pile adds what its blocks kept, against the grid the same state gives scattered particle by
-// particle (inside the walls, which the step's grid stage alone applies).
-TEST(AutoSleep, StillBlocksGiveTheGridAFreshScatterGives) {
-  const Json j = pileAndBall3d();
+// particle (inside the walls, which the step's grid stage alone applies). MLS keeps the stress's
+// share of the momentum, APIC its force.
+class StillBlocksTransfer : public testing::TestWithParam<const char*> {};
+
+TEST_P(StillBlocksTransfer, GiveTheGridAFreshScatterGives) {
+  Json j = pileAndBall3d();
+  j["mpm"]["transfer"] = GetParam();
   auto kept = makeSolver<3, float>(j, 1);
   runUntil(kept, 0.2);  // the pile asleep, the ball falling
   auto fresh = resumedFrom(kept, j, 1);
@@ -236,6 +240,8 @@ TEST(AutoSleep, StillBlocksGiveTheGridAFreshScatterGives) {
   }
   EXPECT_GT(compared, 500);
 }
+
+INSTANTIATE_TEST_SUITE_P(AutoSleep, StillBlocksTransfer, testing::Values("mls", "apic"));
 
 // Kept scatters depend on the steps alone: the same on one and two threads, and the same after a
 // checkpoint, where the blocks keep their scatters anew.

@@ -92,20 +92,18 @@ class StillBlocks {
       hi[a] = std::min(lo[a] + extent_, grid_.nodes[a]);
       rest /= blocks_[a];
     }
-    const IVec<D>& first = lo;
-    if constexpr (D == 2) {
-      for (int j = lo[1]; j < hi[1]; ++j) {
-        const int k = j * grid_.stride[1];
-        const int local = (j - first[1]) * extent_ - first[0];
-        for (int i = lo[0]; i < hi[0]; ++i) f(k + i, local + i);
+    // Line by line along x, the grid's contiguous axis.
+    const IVec<D> extent = hi - lo;
+    const int lines = extent.prod() / extent[0];
+    for (int line = 0; line < lines; ++line) {
+      int k = lo[0], local = 0;
+      for (int a = 1, rest = line, weight = extent_; a < D; ++a, weight *= extent_) {
+        const int offset = rest % extent[a];
+        rest /= extent[a];
+        k += (lo[a] + offset) * grid_.stride[a];
+        local += offset * weight;
       }
-    } else {
-      for (int l = lo[2]; l < hi[2]; ++l)
-        for (int j = lo[1]; j < hi[1]; ++j) {
-          const int k = l * grid_.stride[2] + j * grid_.stride[1];
-          const int local = ((l - first[2]) * extent_ + (j - first[1])) * extent_ - first[0];
-          for (int i = lo[0]; i < hi[0]; ++i) f(k + i, local + i);
-        }
+      for (int i = 0; i < extent[0]; ++i) f(k + i, local + i);
     }
   }
 

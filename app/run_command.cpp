@@ -28,6 +28,7 @@
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/distributed/rank_exchange.h"
+#include "sim/geometry/level_set.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
@@ -152,6 +153,23 @@ nlohmann::json rankSummary(const std::vector<RankTraffic>& ranks) {
   return list;
 }
 
+// A mesh collider whose box is too large for voxels of half a cell gets coarser ones: say so, as
+// its details finer than them are lost.
+void warnOfCoarseMeshColliders(const Scene& scene) {
+  for (size_t i = 0; i < scene.colliders.size(); ++i) {
+    const ColliderParams& c = scene.colliders[i];
+    if (c.shape != ColliderShape::Mesh) continue;
+    const double voxel = meshColliderVoxel(scene, c);
+    if (voxel <= scene.cell_size / 2 * (1 + 1e-12)) continue;
+    std::fprintf(stderr,
+                 "snowsim: warning: %s: colliders[%zu] (%s): its distance field takes voxels of "
+                 "%.3g mm, not half a cell (%.3g mm), as its box would need more than %ld of "
+                 "them; its details finer than %.3g mm are lost\n",
+                 scene.file.c_str(), i, c.mesh.file.c_str(), voxel * 1e3, scene.cell_size / 2 * 1e3,
+                 LevelSet::kMaxVoxels, voxel * 1e3);
+  }
+}
+
 // --estimate: the cost before the run and the time from its first steps; writes nothing.
 void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
   const auto simulation = makeSimulation(scene, threads, world);
@@ -243,6 +261,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
+  warnOfCoarseMeshColliders(scene);
   if (options.estimate_only) {
     alike = false;  // it steps
     return estimateOnly(scene, options.threads, world);

@@ -197,7 +197,20 @@ ColliderParams centredInSlab(ColliderParams p, double depth) {
   return p;
 }
 
+// A mesh collider's distance field: voxels of half a cell, a few cells beyond the surface.
+double meshVoxelAsked(const Scene& scene) {
+  return scene.cell_size / 2;
+}
+double meshMargin(const Scene& scene) {
+  return 3 * scene.cell_size;
+}
+
 }  // namespace
+
+double meshColliderVoxel(const Scene& scene, const ColliderParams& collider) {
+  return LevelSet::voxelFor(collider.mesh.placedAt({0, 0, 0}), meshVoxelAsked(scene),
+                            meshMargin(scene));
+}
 
 template <int D>
 std::vector<Collider<D>> makeColliders(const Scene& scene) {
@@ -223,10 +236,9 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
       c.half_size[a] = p.size[a] / 2;
     }
     c.radius = p.radius;
-    // Once per run: the distance field on voxels of half a cell, a few cells beyond the surface.
     if (p.shape == ColliderShape::Mesh)
       c.level_set = std::make_shared<const LevelSet>(p.mesh.placedAt({0, 0, 0}),
-                                                     scene.cell_size / 2, 3 * scene.cell_size);
+                                                     meshVoxelAsked(scene), meshMargin(scene));
     c.type = p.type;
     c.friction = p.friction;
     c.motion = RigidMotion(D > dims ? centredInSlab(p, extent[D - 1]) : p);

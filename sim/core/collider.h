@@ -90,6 +90,10 @@ Real fastestColliderSpeed(const std::vector<Collider<D>>& colliders, Real domain
 template <int D>
 std::vector<Collider<D>> makeColliders(const Scene& scene);
 
+// The voxel side (m) of a mesh collider's distance field: half a cell, or coarser when the mesh's
+// box would need more than LevelSet::kMaxVoxels voxels at that size.
+double meshColliderVoxel(const Scene& scene, const ColliderParams& collider);
+
 // The scene's colliders (not the domain walls) at `time` seconds, as a snapshot carries them for
 // drawing: in 3D coordinates, a 2D scene's collider extruded through the slab of a 3D run (and
 // at z = 0 in a 2D one).

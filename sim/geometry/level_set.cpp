@@ -10,18 +10,24 @@
 
 namespace snowsim {
 
-LevelSet::LevelSet(const TriangleMesh& mesh, double voxel_size, double margin) {
-  static std::once_flag initialised;
-  std::call_once(initialised, [] { openvdb::initialize(); });
-
+double LevelSet::voxelFor(const TriangleMesh& mesh, double voxel_size, double margin) {
   const auto [lo, hi] = mesh.bounds();
-  voxel_ = voxel_size;
   auto count = [&](double v) {
     double n = 1;
     for (int a = 0; a < 3; ++a) n *= std::ceil((hi[a] - lo[a] + 2 * margin) / v) + 1;
     return n;
   };
-  while (count(voxel_) > kMaxVoxels) voxel_ *= 1.25;
+  double voxel = voxel_size;
+  while (count(voxel) > kMaxVoxels) voxel *= 1.25;
+  return voxel;
+}
+
+LevelSet::LevelSet(const TriangleMesh& mesh, double voxel_size, double margin) {
+  static std::once_flag initialised;
+  std::call_once(initialised, [] { openvdb::initialize(); });
+
+  const auto [lo, hi] = mesh.bounds();
+  voxel_ = voxelFor(mesh, voxel_size, margin);
 
   std::array<int, 3> first{};
   for (int a = 0; a < 3; ++a) {

@@ -17,6 +17,9 @@ class LevelSet {
   LevelSet(const TriangleMesh& mesh, double voxel_size, double margin);
 
   static constexpr long kMaxVoxels = 1L << 24;
+  // The voxel side the constructor takes for these arguments: voxel_size, or larger when the box
+  // would need more than kMaxVoxels.
+  static double voxelFor(const TriangleMesh& mesh, double voxel_size, double margin);
 
   // Signed distance at x (m): negative inside. Beyond the box, the distance to the box is added
   // to the value at its nearest point.

@@ -159,6 +159,18 @@ TEST(LevelSet, IsTheSignedDistanceToTheCube) {
   EXPECT_NEAR(down[1], -1, 0.05);
 }
 
+// A mesh whose box needs more than kMaxVoxels voxels of the size asked for gets larger ones, as
+// few larger as keep it within the cap; a small one keeps the size asked for.
+TEST(LevelSet, VoxelsGrowOnlyPastTheCap) {
+  const TriangleMesh cube = placed(loadTriangleMesh(kMeshes + "cube.obj"), {{0, 0, 0}, {}, 1});
+  auto voxels = [](double side) { return std::pow(std::ceil((1 + 2 * 0.05) / side) + 1, 3); };
+  EXPECT_EQ(LevelSet::voxelFor(cube, 0.01, 0.05), 0.01);
+  const double grown = LevelSet::voxelFor(cube, 0.001, 0.05);
+  EXPECT_GT(grown, 0.001);
+  EXPECT_LE(voxels(grown), LevelSet::kMaxVoxels);
+  EXPECT_GT(voxels(grown / 1.25), LevelSet::kMaxVoxels) << "no larger than it must be";
+}
+
 // The solver screens a mesh collider by its level set's box: every point a turned torus holds
 // (phi <= 0) lies in its bounding box, and the solid's box is the voxels' for a closed mesh.
 TEST(LevelSet, AMeshColliderLiesInsideItsBoundingBox) {

@@ -1,16 +1,19 @@
 // The yardstick of issue-sized 2D targets: the same MLS-MPM snow step the compact single-file
 // programs of the MLS-MPM paper's kind take (Hu et al. 2018; one scalar loop per stage, single
-// precision, a closed-form 2x2 SVD, no threads), written here from the paper's formulas, on
+// precision, a closed-form polar decomposition for the stress and 2x2 SVD for the plasticity, no
+// threads), written here from the paper's formulas, on
 // mpm_bench's "2D large" workload: a 0.6 m block of the reference snow (Stomakhin et al. 2013)
 // at 4 particles a cell of 1/128 m thrown at the ground at 3 m/s, the step half the CFL limit,
 // separating walls. Prints particle-steps per second (median of repetitions), to be run in turn
-// with `mpm_bench STEPS REPS 2d-large float one-thread`.
-// Usage: compact_mls_bench [steps=100] [repetitions=3]
+// with `mpm_bench STEPS REPS 2d-large float one-thread`; "small" runs the "2D small" workload
+// instead (a 0.44 m block at 1/64 m, about the size of the compact programs' own scenes).
+// Usage: compact_mls_bench [steps=100] [repetitions=3] [large | small=large]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "sim/mpm/snow_material.h"
@@ -31,12 +34,16 @@ Mat2 transpose(const Mat2& m) {
   return {m.a, m.c, m.b, m.d};
 }
 
-// F = U diag(s) V^T: the polar rotation R in closed form, then one Jacobi rotation of the
-// symmetric R^T F.
-void svd(const Mat2& F, Mat2& U, float& s0, float& s1, Mat2& V) {
+// The polar rotation R of F = R S, in closed form.
+Mat2 polarRotation(const Mat2& F) {
   const float x = F.a + F.d, y = F.c - F.b, r = std::sqrt(x * x + y * y);
   const float cr = r > 0 ? x / r : 1, sr = r > 0 ? y / r : 0;
-  const Mat2 R{cr, -sr, sr, cr};
+  return {cr, -sr, sr, cr};
+}
+
+// F = U diag(s) V^T: the polar rotation R, then one Jacobi rotation of the symmetric R^T F.
+void svd(const Mat2& F, Mat2& U, float& s0, float& s1, Mat2& V) {
+  const Mat2 R = polarRotation(F);
   const Mat2 S = transpose(R) * F;
   float c = 1, s = 0;
   if (std::abs(S.b) > 1e-6f) {
@@ -87,11 +94,9 @@ struct World {
     for (const Particle& p : particles) {     // P2G
       const Stencil st(p.x, inv_h);
       const float e = std::exp(xi * (1 - p.J_P)), mu = mu0 * e, lambda = lambda0 * e;
-      Mat2 U, V;
-      float s0, s1;
-      svd(p.F, U, s0, s1, V);
-      const Mat2 R = U * transpose(V);
-      const float J = s0 * s1;
+      // The stress needs R and J only: no SVD here, as in the compact programs.
+      const Mat2 R = polarRotation(p.F);
+      const float J = p.F.a * p.F.d - p.F.b * p.F.c;
       const Mat2 FmR{p.F.a - R.a, p.F.b - R.b, p.F.c - R.c, p.F.d - R.d};
       Mat2 tau = FmR * transpose(p.F);  // Kirchhoff stress
       tau = {2 * mu * tau.a + lambda * (J - 1) * J, 2 * mu * tau.b, 2 * mu * tau.c,
@@ -148,9 +153,16 @@ struct World {
 int main(int argc, char** argv) {
   const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
   const int reps = argc > 2 ? std::atoi(argv[2]) : 3;
-  const snowsim::SnowMaterial material;  // the paper's reference snow
-  const int n = 128;
-  const float h = 1.f / n, box = 0.6f, density = 400, spacing = h / 2;
+  const std::string workload = argc > 3 ? argv[3] : "large";
+  if (workload != "large" && workload != "small") {
+    std::fprintf(stderr, "compact_mls_bench: workload '%s' is not one of large, small\n",
+                 workload.c_str());
+    return 2;
+  }
+  const snowsim::SnowMaterial material;    // the paper's reference snow
+  const bool small = workload == "small";  // mpm_bench's cases: 64 cells and 0.44 m, or 128, 0.6
+  const int n = small ? 64 : 128;
+  const float h = 1.f / n, box = small ? 0.44f : 0.6f, density = 400, spacing = h / 2;
   std::vector<double> rates;
   for (int rep = 0; rep < reps; ++rep) {
     World world{n,

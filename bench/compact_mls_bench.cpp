@@ -7,7 +7,7 @@
 // separating walls. Prints particle-steps per second (median of repetitions), to be run in turn
 // with `mpm_bench STEPS REPS 2d-large float one-thread`; "small" runs the "2D small" workload
 // instead (a 0.44 m block at 1/64 m, about the size of the compact programs' own scenes).
-// Usage: compact_mls_bench [steps=100] [repetitions=3] [large | small=large]
+// Usage: compact_mls_bench [steps=100] [repetitions=3] [large | small] (default large)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -154,9 +154,10 @@ int main(int argc, char** argv) {
   const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
   const int reps = argc > 2 ? std::atoi(argv[2]) : 3;
   const std::string workload = argc > 3 ? argv[3] : "large";
-  if (workload != "large" && workload != "small") {
-    std::fprintf(stderr, "compact_mls_bench: workload '%s' is not one of large, small\n",
-                 workload.c_str());
+  if (argc > 4 || steps < 1 || reps < 1 || (workload != "large" && workload != "small")) {
+    std::fprintf(stderr,
+                 "usage: compact_mls_bench [steps >= 1, default 100] [repetitions >= 1, default "
+                 "3] [large | small, default large]\n");
     return 2;
   }
   const snowsim::SnowMaterial material;    // the paper's reference snow

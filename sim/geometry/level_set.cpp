@@ -12,9 +12,10 @@ namespace snowsim {
 
 double LevelSet::voxelFor(const TriangleMesh& mesh, double voxel_size, double margin) {
   const auto [lo, hi] = mesh.bounds();
-  auto count = [&](double v) {
+  auto count = [&](double v) {  // as many as the constructor's dims_
     double n = 1;
-    for (int a = 0; a < 3; ++a) n *= std::ceil((hi[a] - lo[a] + 2 * margin) / v) + 1;
+    for (int a = 0; a < 3; ++a)
+      n *= std::ceil((hi[a] + margin) / v) - std::floor((lo[a] - margin) / v) + 1;
     return n;
   };
   double voxel = voxel_size;

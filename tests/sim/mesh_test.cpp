@@ -163,12 +163,22 @@ TEST(LevelSet, IsTheSignedDistanceToTheCube) {
 // few larger as keep it within the cap; a small one keeps the size asked for.
 TEST(LevelSet, VoxelsGrowOnlyPastTheCap) {
   const TriangleMesh cube = placed(loadTriangleMesh(kMeshes + "cube.obj"), {{0, 0, 0}, {}, 1});
-  auto voxels = [](double side) { return std::pow(std::ceil((1 + 2 * 0.05) / side) + 1, 3); };
+  const auto [lo, hi] = cube.bounds();
   EXPECT_EQ(LevelSet::voxelFor(cube, 0.01, 0.05), 0.01);
-  const double grown = LevelSet::voxelFor(cube, 0.001, 0.05);
-  EXPECT_GT(grown, 0.001);
-  EXPECT_LE(voxels(grown), LevelSet::kMaxVoxels);
-  EXPECT_GT(voxels(grown / 1.25), LevelSet::kMaxVoxels) << "no larger than it must be";
+  for (const double margin : {0.05, 0.3}) {
+    // Voxels along each axis: from the one below lo - margin to the one above hi + margin.
+    auto voxels = [&](double side) {
+      double n = 1;
+      for (int a = 0; a < 3; ++a)
+        n *= std::ceil((hi[a] + margin) / side) - std::floor((lo[a] - margin) / side) + 1;
+      return n;
+    };
+    const double grown = LevelSet::voxelFor(cube, 0.001, margin);
+    EXPECT_GT(grown, 0.001) << margin;
+    EXPECT_LE(voxels(grown), LevelSet::kMaxVoxels) << margin;
+    EXPECT_GT(voxels(grown / 1.25), LevelSet::kMaxVoxels)
+        << margin << ": no larger than it must be";
+  }
 }
 
 // The solver screens a mesh collider by its level set's box: every point a turned torus holds

@@ -1,6 +1,8 @@
 // Small fixed-size linear algebra shared by every solver, templated on dimension.
 #pragma once
 
+#include <array>
+
 #include <Eigen/Dense>
 
 namespace snowsim {
@@ -14,5 +16,27 @@ template <int D, class T = Real>
 using Mat = Eigen::Matrix<T, D, D>;
 template <int D>
 using IVec = Eigen::Matrix<int, D, 1>;
+
+// A symmetric D x D matrix kept by its entries on and above the diagonal, row by row: two thirds
+// of a full one in 3D, for the per-particle arrays that hold a stress.
+template <int D, class T = Real>
+struct Symmetric {
+  static constexpr int entries = D * (D + 1) / 2;
+  std::array<T, entries> upper{};
+
+  // A's upper triangle (A symmetric, or to be taken as such).
+  static Symmetric of(const Mat<D, T>& A) {
+    Symmetric s;
+    for (int i = 0, k = 0; i < D; ++i)
+      for (int j = i; j < D; ++j) s.upper[k++] = A(i, j);
+    return s;
+  }
+  Mat<D, T> matrix() const {
+    Mat<D, T> A;
+    for (int i = 0, k = 0; i < D; ++i)
+      for (int j = i; j < D; ++j) A(i, j) = A(j, i) = upper[k++];
+    return A;
+  }
+};
 
 }  // namespace snowsim

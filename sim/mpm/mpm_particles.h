@@ -15,8 +15,11 @@ namespace snowsim {
 // T: the scalar of the state, double or float (mpm.precision).
 template <int D, class T = Real>
 struct MpmParticles : Particles<D, T> {
-  std::vector<Mat<D, T>> F_E;   // elastic deformation gradient
-  std::vector<Mat<D, T>> R_E;   // its polar rotation, from the last return mapping
+  std::vector<Mat<D, T>> F_E;  // elastic deformation gradient
+  // The Kirchhoff stress P F_E^T (symmetric) of the last return mapping's F_E, which the next
+  // scatter spreads: computed where F_E and its rotation are at hand, and a third smaller than
+  // the rotation and F_E it replaces in the scatter.
+  std::vector<Symmetric<D, T>> tau;
   std::vector<Mat<D, T>> V_E;   // 3D: its right singular vectors, the next SVD's starting guess
   std::vector<T> J_P;           // det F_P, plastic volume ratio
   std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
@@ -26,15 +29,15 @@ struct MpmParticles : Particles<D, T> {
   std::vector<int> calm_steps;
 
   // The element types of the arrays, for a reordering that needs a spare buffer of the widest.
-  using ElementTypes = std::tuple<Vec<D, T>, Mat<D, T>, T, int, LameOf<T>>;
+  using ElementTypes = std::tuple<Vec<D, T>, Mat<D, T>, Symmetric<D, T>, T, int, LameOf<T>>;
 
   MpmParticles() = default;
-  // The snow starts unstrained: F_E = I, J_P = 1, no affine velocity.
+  // The snow starts unstrained: F_E = I, J_P = 1, no stress, no affine velocity.
   MpmParticles(Particles<D, T> particles, const SnowMaterial& material)
       : Particles<D, T>(std::move(particles)) {
     const int n = this->size();
     F_E.assign(n, Mat<D, T>::Identity());
-    R_E.assign(n, Mat<D, T>::Identity());
+    tau.assign(n, Symmetric<D, T>{});
     if constexpr (D == 3) V_E.assign(n, Mat<D, T>::Identity());
     J_P.assign(n, 1);
     C.assign(n, Mat<D, T>::Zero());
@@ -46,7 +49,7 @@ struct MpmParticles : Particles<D, T> {
   template <class F>
   void forEachArray(F&& f) {
     Particles<D, T>::forEachArray(f);
-    f(F_E), f(R_E), f(V_E), f(J_P), f(C), f(lame), f(calm_steps);
+    f(F_E), f(tau), f(V_E), f(J_P), f(C), f(lame), f(calm_steps);
   }
 };
 

@@ -298,9 +298,7 @@ void MpmSolver<D, T>::scatterParticle(int p, PartialGrid& g, T dt) const {
   // Grid force f_i = -sum_p V_p^0 P_p F_E^T grad w_ip (eq. 7), with the Kirchhoff stress
   // tau = P F_E^T; MLS replaces grad w by w D^-1 (x_i - x_p) (Hu et al. 2018, eq. 18).
   const T V0 = particles_.volume[p];
-  const M stress = V0 > 0 ? M(-V0 * fixedCorotatedKirchhoff<D, T>(
-                                        particles_.F_E[p], particles_.R_E[p], particles_.lame[p]))
-                          : M::Zero();
+  const M stress = V0 > 0 ? M(-V0 * particles_.tau[p].matrix()) : M::Zero();
   const Stencil<D, Kernel, T> s(x, inv_h);
   if constexpr (Transfer::mls) {
     // MLS-MPM puts dt f_i straight into the momentum (Hu et al. 2018, section 5.1): node i
@@ -538,25 +536,28 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
   for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> group =
         ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-    T J_P_before[returnMappingBatch];
-    for (size_t l = 0; l < group.size(); ++l) J_P_before[l] = particles_.J_P[group[l]];
     if constexpr (D == 2) {
-      for (const int p : group)
-        particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], particles_.J_P[p],
-                                                  particles_.R_E[p]);  // eqs. 11-12
-    } else {
+      for (const int p : group) {
+        M rotation;
+        const T J_P_before = particles_.J_P[p];
+        particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], J_P_before,
+                                                  rotation);  // eqs. 11-12
+        // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
+        // there.
+        if (particles_.J_P[p] != J_P_before)
+          particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
+        particles_.tau[p] =
+            fixedCorotatedKirchhoffUpper<D, T>(particles_.F_E[p], rotation, particles_.lame[p]);
+      }
+    } else {  // the Lamé parameters and tau as well
+      M rotation[returnMappingBatch];
       plasticReturnMappingJ<T>(material_, group, particles_.F_E.data(), particles_.J_P.data(),
-                               particles_.R_E.data(), particles_.V_E.data(), isa);
+                               rotation, particles_.V_E.data(), particles_.lame.data(),
+                               particles_.tau.data(), isa);
     }
-    for (size_t l = 0; l < group.size(); ++l) {
-      const int p = group[l];
-      // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
-      // there.
-      if (particles_.J_P[p] != J_P_before[l])
-        particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
-      // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
-      if constexpr (!Transfer::affine) particles_.C[p].setZero();
-    }
+    // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
+    if constexpr (!Transfer::affine)
+      for (const int p : group) particles_.C[p].setZero();
   }
 }
 

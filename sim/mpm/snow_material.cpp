@@ -551,11 +551,41 @@ SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes
   }
 }
 
-// Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
-// (eq. 11), V_E the starting guess; R_E = U V^T, J_P' = J_P J_trial / J_clamped (as in 2D).
+// The Kirchhoff stress of the lanes' F and rotation R with the Lamé parameters of particles ps,
+// into lane l's tau[ps[l]] where store[l] holds: as fixedCorotatedKirchhoffUpper.
 template <class T>
-SNOWSIM_LANES_INLINE void clampSingularValuesLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                                                   Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
+SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3Lanes<T>& R,
+                                              std::span<const int> ps, const LameOf<T>* lame,
+                                              const bool* store, Symmetric<3, T>* tau) {
+  const int n = int(ps.size());
+  Lanes<T> mu{}, lambda{};
+  for (int l = 0; l < n; ++l) mu[l] = lame[ps[l]].mu, lambda[l] = lame[ps[l]].lambda;
+  const auto& f = F.a;
+  const Lanes<T> J = f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1]) -
+                     f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0]) +
+                     f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0]);
+  const Lanes<T> pressure = lambda * (J - 1) * J;
+  Lanes<T> upper[Symmetric<3, T>::entries];
+  for (int i = 0, k = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j, ++k) {
+      const Lanes<T> sum = (f[i][0] - R.a[i][0]) * f[j][0] + (f[i][1] - R.a[i][1]) * f[j][1] +
+                           (f[i][2] - R.a[i][2]) * f[j][2];
+      upper[k] = 2 * mu * sum;
+      if (i == j) upper[k] += pressure;
+    }
+  for (int l = 0; l < n; ++l)
+    if (store[l])
+      for (int k = 0; k < Symmetric<3, T>::entries; ++k) tau[ps[l]].upper[k] = upper[k][l];
+}
+
+// Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
+// (eq. 11), V_E the starting guess; R_E[at[l]] = U V^T, J_P' = J_P J_trial / J_clamped (as in 2D),
+// the Lamé parameters hardened anew and the stress of the new F_E.
+template <class T>
+SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
+                                                   const int* at, Mat<3, T>* F_E, T* J_P,
+                                                   Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame,
+                                                   Symmetric<3, T>* tau, T lo, T hi) {
   const Mat3Lanes<T> F = loadLanes(F_E, ps);
   Mat3Lanes<T> U, V = loadLanes(V_E, ps);
   Lanes<T> sigma[3];
@@ -575,18 +605,25 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(std::span<const int> ps, Mat<
   for (int l = 0; l < int(ps.size()); ++l) {
     const int p = ps[l];
     storeLane(new_F_E, l, F_E[p]);
-    storeLane(rotation, l, R_E[p]);
+    storeLane(rotation, l, R_E[at[l]]);
     storeLane(V, l, V_E[p]);
+    const T J_P_before = J_P[p];
     J_P[p] = J_P[p] * J_trial[l] / J_clamped[l];
+    // Hardening depends on J_P alone: no exp while it stays as it is.
+    if (J_P[p] != J_P_before) lame[p] = hardenedLame<T>(m, J_P[p]);
   }
+  static constexpr bool every[lanes] = {true, true, true, true, true, true, true, true};
+  storeKirchhoffLanes(new_F_E, rotation, ps, lame, every, tau);
 }
 
-// The whole return mapping of ps (at most returnMappingBatch): Newton and the bounds test eight
-// at a time; those outside their bounds gathered into lanes of their own for the SVD.
+// The whole return mapping of ps (at most returnMappingBatch), R_E in the order of ps: Newton, the
+// bounds test and the stress of those within them eight at a time; those outside their bounds
+// gathered into lanes of their own for the SVD.
 template <class T>
-SNOWSIM_LANES_INLINE void mapInLanes(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                                     Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
-  int beyond[returnMappingBatch];
+SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E,
+                                     T* J_P, Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame,
+                                     Symmetric<3, T>* tau, T lo, T hi) {
+  int beyond[returnMappingBatch], beyond_at[returnMappingBatch];
   int count = 0;
   for (size_t first = 0; first < ps.size(); first += lanes) {
     const std::span<const int> group =
@@ -594,32 +631,54 @@ SNOWSIM_LANES_INLINE void mapInLanes(std::span<const int> ps, Mat<3, T>* F_E, T*
     const Mat3Lanes<T> F = loadLanes(F_E, group);
     Mat3Lanes<T> X = F;
     const LaneMask<T> within = newtonPolarLanes(X) & singularValuesWithinLanes(X, F, lo, hi);
+    bool stays[lanes];
     for (int l = 0; l < int(group.size()); ++l) {
-      if (within[l])
-        storeLane(X, l, R_E[group[l]]);  // F_E and J_P stay as they are
-      else
-        beyond[count++] = group[l];
+      stays[l] = within[l];
+      if (stays[l]) {
+        storeLane(X, l, R_E[first + l]);  // F_E, J_P and the Lamé parameters stay as they are
+      } else {
+        beyond[count] = group[l];
+        beyond_at[count++] = int(first) + l;
+      }
     }
+    storeKirchhoffLanes(F, X, group, lame, stays, tau);
   }
   for (int first = 0; first < count; first += lanes)
-    clampSingularValuesLanes(std::span<const int>(beyond + first, std::min(lanes, count - first)),
-                             F_E, J_P, R_E, V_E, lo, hi);
+    clampSingularValuesLanes(m,
+                             std::span<const int>(beyond + first, std::min(lanes, count - first)),
+                             beyond_at + first, F_E, J_P, R_E, V_E, lame, tau, lo, hi);
 }
 
+// The arrays of the 3D return mapping, for the builds below.
 template <class T>
-void returnMappingBaseline(std::span<const int> ps, Mat<3, T>* F_E, T* J_P, Mat<3, T>* R_E,
-                           Mat<3, T>* V_E, T lo, T hi) {
-  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+struct MappingArrays {
+  Mat<3, T>* F_E;
+  T* J_P;
+  Mat<3, T>* R_E;
+  Mat<3, T>* V_E;
+  LameOf<T>* lame;
+  Symmetric<3, T>* tau;
+};
+
+template <class T>
+SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps,
+                                     const MappingArrays<T>& a) {
+  mapInLanes(m, ps, a.F_E, a.J_P, a.R_E, a.V_E, a.lame, a.tau, T(1 - m.theta_c), T(1 + m.theta_s));
 }
 template <class T>
-SNOWSIM_TARGET_AVX2 void returnMappingAvx2(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                                           Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
-  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+void returnMappingBaseline(const SnowMaterial& m, std::span<const int> ps,
+                           const MappingArrays<T>& a) {
+  mapInLanes(m, ps, a);
 }
 template <class T>
-SNOWSIM_TARGET_AVX512 void returnMappingAvx512(std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                                               Mat<3, T>* R_E, Mat<3, T>* V_E, T lo, T hi) {
-  mapInLanes(ps, F_E, J_P, R_E, V_E, lo, hi);
+SNOWSIM_TARGET_AVX2 void returnMappingAvx2(const SnowMaterial& m, std::span<const int> ps,
+                                           const MappingArrays<T>& a) {
+  mapInLanes(m, ps, a);
+}
+template <class T>
+SNOWSIM_TARGET_AVX512 void returnMappingAvx512(const SnowMaterial& m, std::span<const int> ps,
+                                               const MappingArrays<T>& a) {
+  mapInLanes(m, ps, a);
 }
 
 #undef SNOWSIM_LANES_INLINE
@@ -627,22 +686,23 @@ SNOWSIM_TARGET_AVX512 void returnMappingAvx512(std::span<const int> ps, Mat<3, T
 
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, Mat<3, T>* V_E, VectorIsa isa) {
+                           Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame, Symmetric<3, T>* tau,
+                           VectorIsa isa) {
   // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
   // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
-  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
   for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> batch =
         ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
+    const MappingArrays<T> arrays{F_E, J_P, R_E + first, V_E, lame, tau};
     switch (isa) {
       case VectorIsa::avx512:
-        returnMappingAvx512(batch, F_E, J_P, R_E, V_E, lo, hi);
+        returnMappingAvx512(m, batch, arrays);
         break;
       case VectorIsa::avx2:
-        returnMappingAvx2(batch, F_E, J_P, R_E, V_E, lo, hi);
+        returnMappingAvx2(m, batch, arrays);
         break;
       case VectorIsa::baseline:
-        returnMappingBaseline(batch, F_E, J_P, R_E, V_E, lo, hi);
+        returnMappingBaseline(m, batch, arrays);
         break;
     }
   }
@@ -652,7 +712,10 @@ template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E) {
   const int first = 0;
-  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &V_E, vectorIsa());
+  LameOf<T> lame = hardenedLame<T>(m, J_P);
+  Symmetric<3, T> tau;
+  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &V_E, &lame, &tau,
+                           vectorIsa());
   return J_P;
 }
 
@@ -669,7 +732,8 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
   template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);             \
   template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&, Mat<3, T>&); \
   template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*,    \
-                                         T*, Mat<3, T>*, Mat<3, T>*, VectorIsa);
+                                         T*, Mat<3, T>*, Mat<3, T>*, LameOf<T>*, Symmetric<3, T>*, \
+                                         VectorIsa);
 SNOWSIM_SNOW_MATERIAL(double)
 SNOWSIM_SNOW_MATERIAL(float)
 #undef SNOWSIM_SNOW_MATERIAL

@@ -79,6 +79,23 @@ inline Mat<D, T> fixedCorotatedKirchhoff(const MatArg<D, T>& F_E, const MatArg<D
          lame.lambda * (J - 1) * J * Mat<D, T>::Identity();
 }
 
+// The same stress by its upper triangle, which is all a symmetric one needs: half the products,
+// and no lower triangle to differ from the upper by round-off.
+template <int D, class T = Real>
+inline Symmetric<D, T> fixedCorotatedKirchhoffUpper(const Mat<D, T>& F_E, const Mat<D, T>& R_E,
+                                                    const LameOf<T>& lame) {
+  const T J = F_E.determinant();
+  const T pressure = lame.lambda * (J - 1) * J;
+  Symmetric<D, T> tau;
+  for (int i = 0, k = 0; i < D; ++i)
+    for (int j = i; j < D; ++j, ++k) {
+      T sum = 0;
+      for (int a = 0; a < D; ++a) sum += (F_E(i, a) - R_E(i, a)) * F_E(j, a);
+      tau.upper[k] = 2 * lame.mu * sum + (i == j ? pressure : T(0));
+    }
+  return tau;
+}
+
 // Plastic return mapping (paper section 5, eqs. 9-11): F = F_E F_P with F_E the trial elastic
 // gradient; clamps the singular values of F_E to [1 - theta_c, 1 + theta_s], moves the rest into
 // F_P (F_P = V S^-1 U^T F) and returns the new J_P = det F_P. F_E and F_P are updated in place.
@@ -98,15 +115,18 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E);
-// The 3D one for particles ps of the arrays F_E, J_P, R_E and V_E, with the results of the call
-// above for each: a particle per vector lane, returnMappingLanes at a time, and those of each
-// returnMappingBatch beyond their bounds gathered for the SVD; compiled for isa (vectorIsa();
-// each build gives the same results).
+// The 3D one for particles ps of the arrays F_E, J_P and V_E, with the results of the call above
+// for each, the rotations in the order of ps (R_E[i] that of particle ps[i]), and, so that no
+// rotation need be kept per particle, each one's Lamé parameters hardened anew where J_P changed
+// and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a particle per vector lane,
+// returnMappingLanes at a time, and those of each returnMappingBatch beyond their bounds gathered
+// for the SVD; compiled for isa (vectorIsa(); each build gives the same results).
 inline constexpr int returnMappingLanes = 8;
 inline constexpr int returnMappingBatch = 64;
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, Mat<3, T>* V_E, VectorIsa isa);
+                           Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame, Symmetric<3, T>* tau,
+                           VectorIsa isa);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 template <class T>

@@ -79,6 +79,24 @@ TEST(SnowMaterial, PiolaIsTheEnergyGradient) {
     }
   EXPECT_LT((fixedCorotatedKirchhoff<2>(F, polarRotation<2>(F), lame) - P * F.transpose()).norm(),
             1e-12);
+  EXPECT_LT(
+      (fixedCorotatedKirchhoffUpper<2>(F, polarRotation<2>(F), lame).matrix() - P * F.transpose())
+          .norm(),
+      1e-12);
+}
+
+// The stress the particles keep is the upper triangle of P F_E^T, which is symmetric: the full
+// matrix from the packed one must be P F_E^T itself, lower triangle included.
+TEST(SnowMaterial, KirchhoffStressKeptByItsUpperTriangleIsPFTranspose) {
+  const SnowMaterial m;
+  const Lame lame = hardenedLame<Real>(m, 0.9);
+  Mat<3> F;
+  F << 1.02, 0.07, -0.03, -0.05, 0.96, 0.04, 0.02, -0.06, 1.01;
+  const Mat<3> tau = fixedCorotatedPiola<3>(F, lame) * F.transpose();
+  EXPECT_LT((tau - tau.transpose()).norm(), 1e-9 * tau.norm());
+  EXPECT_LT((fixedCorotatedKirchhoffUpper<3>(F, polarRotation<3>(F), lame).matrix() - tau).norm(),
+            1e-12 * tau.norm());
+  EXPECT_GT(tau.norm(), 1e3);  // a stress of the material's size, not a zero that matches anything
 }
 
 TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
@@ -196,7 +214,9 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
 // The 3D return mapping runs particles eight at a time in vector lanes, and those beyond their
 // bounds gathered into lanes of their own: whatever batch a particle is in, and on whichever build
 // of the lanes, it must get what it gets alone on the baseline build, bit for bit (each lane
-// iterates until its own particle converges).
+// iterates until its own particle converges). The Lamé parameters it hardens anew and the stress
+// it leaves for the scatter must be those of the new J_P and F_E (P F_E^T, to round-off relative
+// to the stress and to mu), the same bits on every build.
 template <class T>
 void expectBatchesMatchOneAtATime() {
   const SnowMaterial m;
@@ -210,24 +230,42 @@ void expectBatchesMatchOneAtATime() {
   for (int p = 0; p < n; ++p)
     J_alone[p] = plasticReturnMappingJ<T>(m, F_alone[p], J_alone[p], R_alone[p], V_alone[p]);
   vectorIsa() = best;
+  std::vector<Symmetric<3, T>> first_tau;
   for (const VectorIsa isa : {VectorIsa::baseline, VectorIsa::avx2, VectorIsa::avx512}) {
     if (isa > best) continue;
     std::vector<Mat<3, T>> F_E = F, R_E(n), V_E(n, Mat<3, T>::Identity());
     std::vector<T> J_P(n, T(0.8));
+    std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
+    std::vector<Symmetric<3, T>> tau(n);
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), std::mt19937(int(isa)));
     constexpr int sizes[] = {1, 5, 8, 13, returnMappingBatch, 30, 2};
     for (int first = 0, k = 0; first < n; first += sizes[k], k = (k + 1) % std::size(sizes)) {
       const std::span<const int> batch(order.data() + first, std::min(sizes[k], n - first));
-      plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), R_E.data(), V_E.data(), isa);
+      std::vector<Mat<3, T>> rotations(batch.size());  // in the batch's order
+      plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), rotations.data(), V_E.data(),
+                               lame.data(), tau.data(), isa);
+      for (size_t i = 0; i < batch.size(); ++i) R_E[batch[i]] = rotations[i];
     }
+    const double tolerance = std::is_same_v<T, float> ? 1e-5 : 1e-12;
     for (int p = 0; p < n; ++p) {
       EXPECT_EQ(F_E[p], F_alone[p]) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(J_P[p], J_alone[p]) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(R_E[p], R_alone[p]) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(V_E[p], V_alone[p]) << "case " << p << ", build " << int(isa);
+      const LameOf<T> hardened = hardenedLame<T>(m, J_P[p]);
+      EXPECT_EQ(lame[p].mu, hardened.mu) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(lame[p].lambda, hardened.lambda) << "case " << p << ", build " << int(isa);
+      const Mat<3> F_new = F_E[p].template cast<double>();
+      const Lame L{double(hardened.mu), double(hardened.lambda)};
+      const Mat<3> expected = fixedCorotatedPiola<3>(F_new, L) * F_new.transpose();
+      EXPECT_LT((tau[p].matrix().template cast<double>() - expected).norm(),
+                tolerance * (expected.norm() + L.mu))
+          << "case " << p << ", build " << int(isa);
+      if (!first_tau.empty()) EXPECT_EQ(tau[p].upper, first_tau[p].upper) << "case " << p;
     }
+    if (first_tau.empty()) first_tau = tau;
   }
 }
 
@@ -255,7 +293,10 @@ void expectDegenerateMappedSanely() {
   std::vector<T> J_P(n, T(0.8));
   std::vector<int> all(n);
   std::iota(all.begin(), all.end(), 0);
-  plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), R_E.data(), V_E.data(), vectorIsa());
+  std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
+  std::vector<Symmetric<3, T>> tau(n);
+  plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), R_E.data(), V_E.data(), lame.data(),
+                           tau.data(), vectorIsa());
   const double tolerance = std::is_same_v<T, float> ? 1e-5 : 1e-12;
   for (int p = 0; p < n; ++p) {
     EXPECT_TRUE(std::isfinite(J_P[p])) << "case " << p;

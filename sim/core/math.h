@@ -24,13 +24,6 @@ struct Symmetric {
   static constexpr int entries = D * (D + 1) / 2;
   std::array<T, entries> upper{};
 
-  // A's upper triangle (A symmetric, or to be taken as such).
-  static Symmetric of(const Mat<D, T>& A) {
-    Symmetric s;
-    for (int i = 0, k = 0; i < D; ++i)
-      for (int j = i; j < D; ++j) s.upper[k++] = A(i, j);
-    return s;
-  }
   Mat<D, T> matrix() const {
     Mat<D, T> A;
     for (int i = 0, k = 0; i < D; ++i)

@@ -17,8 +17,8 @@ template <int D, class T = Real>
 struct MpmParticles : Particles<D, T> {
   std::vector<Mat<D, T>> F_E;  // elastic deformation gradient
   // The Kirchhoff stress P F_E^T (symmetric) of the last return mapping's F_E, which the next
-  // scatter spreads: computed where F_E and its rotation are at hand, and a third smaller than
-  // the rotation and F_E it replaces in the scatter.
+  // scatter spreads: computed where F_E and its rotation are at hand; a third of the F_E and
+  // rotation the scatter would otherwise read.
   std::vector<Symmetric<D, T>> tau;
   std::vector<Mat<D, T>> V_E;   // 3D: its right singular vectors, the next SVD's starting guess
   std::vector<T> J_P;           // det F_P, plastic volume ratio

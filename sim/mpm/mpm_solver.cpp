@@ -533,32 +533,32 @@ void MpmSolver<D, T>::trialDeformation(int p, T dt) {
 template <int D, class T>
 template <class Transfer>
 void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
-  for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
-    const std::span<const int> group =
-        ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-    if constexpr (D == 2) {
-      for (const int p : group) {
-        M rotation;
-        const T J_P_before = particles_.J_P[p];
-        particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], J_P_before,
-                                                  rotation);  // eqs. 11-12
-        // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
-        // there.
-        if (particles_.J_P[p] != J_P_before)
-          particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
-        particles_.tau[p] =
-            fixedCorotatedKirchhoffUpper<D, T>(particles_.F_E[p], rotation, particles_.lame[p]);
-      }
-    } else {  // the Lamé parameters and tau as well
+  if constexpr (D == 2) {
+    for (const int p : ps) {
+      M rotation;
+      const T J_P_before = particles_.J_P[p];
+      particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], J_P_before,
+                                                rotation);  // eqs. 11-12
+      // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
+      // there.
+      if (particles_.J_P[p] != J_P_before)
+        particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
+      particles_.tau[p] =
+          fixedCorotatedKirchhoffUpper<D, T>(particles_.F_E[p], rotation, particles_.lame[p]);
+    }
+  } else {  // the Lamé parameters and tau as well; the rotations are not kept
+    for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
+      const std::span<const int> group =
+          ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
       M rotation[returnMappingBatch];
       plasticReturnMappingJ<T>(material_, group, particles_.F_E.data(), particles_.J_P.data(),
                                rotation, particles_.V_E.data(), particles_.lame.data(),
                                particles_.tau.data(), isa);
     }
-    // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
-    if constexpr (!Transfer::affine)
-      for (const int p : group) particles_.C[p].setZero();
   }
+  // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
+  if constexpr (!Transfer::affine)
+    for (const int p : ps) particles_.C[p].setZero();
 }
 
 template <int D, class T>

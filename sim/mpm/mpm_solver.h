@@ -144,7 +144,8 @@ class MpmSolver final : public Solver<D> {
   // 7. F_E <- (I + dt grad v) F_E (eq. 10).
   void trialDeformation(int p, T dt);
   // 7, then: plasticity (eqs. 11-12) and hardening (eq. 8) of particles ps, in 3D eight at a time
-  // in vector lanes (the build for isa).
+  // in vector lanes (the build for isa), and the stress tau of their new F_E, which the next
+  // scatter reads: whatever changes F_E must set tau.
   template <class Transfer>
   void returnMapping(std::span<const int> ps, VectorIsa isa);
   void collideParticle(int p);  // 9. particle-based body collisions (section 8)

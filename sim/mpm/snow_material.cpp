@@ -712,7 +712,7 @@ template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E) {
   const int first = 0;
-  LameOf<T> lame = hardenedLame<T>(m, J_P);
+  LameOf<T> lame = hardenedLame<T>(m, J_P);  // the lanes harden it and take the stress: unused here
   Symmetric<3, T> tau;
   plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &V_E, &lame, &tau,
                            vectorIsa());

@@ -69,8 +69,7 @@ Mat<D, T> fixedCorotatedPiola(const MatArg<D, T>& F_E, const LameOf<T>& lame);
 
 // The Kirchhoff stress P F_E^T = 2 mu (F_E - R_E) F_E^T + lambda (J_E - 1) J_E I, which is what the
 // grid force sum needs (f_i = -sum_p V_p^0 P_p F_E^T grad w_ip, paper eq. 7) and is free of F^{-T}.
-// R_E is the polar rotation of F_E (polarRotation, or kept from the return mapping). Inline: the
-// scatter computes it for every particle.
+// R_E is the polar rotation of F_E (polarRotation, or the one the return mapping found).
 template <int D, class T = Real>
 inline Mat<D, T> fixedCorotatedKirchhoff(const MatArg<D, T>& F_E, const MatArg<D, T>& R_E,
                                          const LameOf<T>& lame) {

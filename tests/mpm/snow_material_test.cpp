@@ -240,7 +240,7 @@ void expectBatchesMatchOneAtATime() {
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), std::mt19937(int(isa)));
-    constexpr int sizes[] = {1, 5, 8, 13, returnMappingBatch, 30, 2};
+    constexpr int sizes[] = {1, 5, 8, 13, returnMappingBatch, 30, 2, 2 * returnMappingBatch + 3};
     for (int first = 0, k = 0; first < n; first += sizes[k], k = (k + 1) % std::size(sizes)) {
       const std::span<const int> batch(order.data() + first, std::min(sizes[k], n - first));
       std::vector<Mat<3, T>> rotations(batch.size());  // in the batch's order
@@ -263,7 +263,9 @@ void expectBatchesMatchOneAtATime() {
       EXPECT_LT((tau[p].matrix().template cast<double>() - expected).norm(),
                 tolerance * (expected.norm() + L.mu))
           << "case " << p << ", build " << int(isa);
-      if (!first_tau.empty()) EXPECT_EQ(tau[p].upper, first_tau[p].upper) << "case " << p;
+      if (!first_tau.empty()) {
+        EXPECT_EQ(tau[p].upper, first_tau[p].upper) << "case " << p;
+      }
     }
     if (first_tau.empty()) first_tau = tau;
   }

@@ -48,21 +48,7 @@ class SimulationOf final : public Simulation {
     s.grid.particle_spacing = scene_.cell_size;
     for (const Body& body : scene_.bodies)
       s.grid.particle_spacing = std::min(s.grid.particle_spacing, particleSpacing(scene_, body));
-    const Particles<D>& p = solver_->particles();
-    s.position.resize(p.size());
-    s.velocity.resize(p.size());
-    s.mass.resize(p.size());
-    s.radius.resize(p.size());
-    for (int i = 0; i < p.size(); ++i) {  // in creation order, however the solver stores them
-      const int id = p.id[i];
-      for (int a = 0; a < 3; ++a) {
-        s.position[id][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
-        s.velocity[id][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
-      }
-      s.mass[id] = static_cast<float>(p.mass[i]);
-      s.radius[id] =
-          static_cast<float>(std::pow(p.mass[i] / scene_.bodies[p.body[i]].density, 1.0 / D) / 2);
-    }
+    solver_->snapshotParticles(scene_, s);
     s.colliders = collidersAt(scene_, D, s.time);
     solver_->describe(s);
     return s;
@@ -71,7 +57,7 @@ class SimulationOf final : public Simulation {
   double time() const override { return solver_->time(); }
   long steps() const override { return solver_->steps(); }
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
-  int particleCount() const override { return solver_->particles().size(); }
+  int particleCount() const override { return solver_->particleCount(); }
   SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
   SleepTally autoSleep() const override { return solver_->autoSleep(); }
   std::vector<RankTraffic> rankTraffic() const override { return solver_->rankTraffic(); }

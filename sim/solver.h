@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <vector>
@@ -18,6 +19,28 @@
 #include "sim/scene/scene.h"
 
 namespace snowsim {
+
+// What snapshotParticles writes, from particles of either precision (a float converts to double
+// exactly, so the snapshot is the same bytes either way). The radius is half the side of the
+// particle's share of its body's volume.
+template <int D, class T>
+void putParticles(const Particles<D, T>& p, const Scene& scene, Snapshot& s) {
+  s.position.resize(p.size());
+  s.velocity.resize(p.size());
+  s.mass.resize(p.size());
+  s.radius.resize(p.size());
+  for (int i = 0; i < p.size(); ++i) {  // in creation order, however the solver stores them
+    const int id = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      s.position[id][a] = a < D ? static_cast<float>(p.x[i][a]) : 0.f;
+      s.velocity[id][a] = a < D ? static_cast<float>(p.v[i][a]) : 0.f;
+    }
+    const double mass = p.mass[i];
+    s.mass[id] = static_cast<float>(mass);
+    s.radius[id] =
+        static_cast<float>(std::pow(mass / scene.bodies[p.body[i]].density, 1.0 / D) / 2);
+  }
+}
 
 struct StepSizes {
   double smallest = std::numeric_limits<double>::infinity(), largest = 0;
@@ -90,6 +113,13 @@ class Solver {
   virtual std::vector<StageSeconds> stageSeconds() const { return {}; }
 
   virtual const Particles<D>& particles() const = 0;
+  virtual int particleCount() const { return particles().size(); }
+  // The particles' positions, velocities, masses and radii into a snapshot, in creation order. A
+  // solver that keeps its state in float writes them from its own arrays: particles() would make
+  // a double copy of them first.
+  virtual void snapshotParticles(const Scene& scene, Snapshot& snapshot) const {
+    putParticles(particles(), scene, snapshot);
+  }
 
   // What each MPI rank sent the others so far, in rank order, on every rank (none for a solver
   // that runs in one process).

@@ -41,6 +41,10 @@ class MpmSolver final : public Solver<D> {
   std::vector<StageSeconds> stageSeconds() const override { return schedule_.stageSeconds(); }
   // In double: a float solver's particles converted, once per step that asks for them.
   const Particles<D>& particles() const override;
+  int particleCount() const override { return total_particles_; }
+  void snapshotParticles(const Scene& scene, Snapshot& snapshot) const override {
+    putParticles(outputParticles(), scene, snapshot);
+  }
   void describe(Snapshot& snapshot) const override;
   SolveTally implicitSolves() const override { return solves_; }
   SleepTally autoSleep() const override { return sleep_tally_; }

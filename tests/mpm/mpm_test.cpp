@@ -279,6 +279,27 @@ TEST(Mpm, SnapshotsKeepTheParticlesInCreationOrder) {
   }
 }
 
+// A float solver writes its snapshot's particles from its own arrays, without the double copy
+// particles() makes: the snapshot must be the one that copy gives, value for value.
+TEST(Mpm, FloatSnapshotIsTheOneOfItsDoubleCopy) {
+  Json j = baseScene();
+  j["bodies"] = {{{"shape", "ball"}, {"center", {0.05, 0.1}}, {"radius", 0.03}},
+                 {{"shape", "ball"}, {"center", {0.15, 0.1}}, {"radius", 0.03}, {"density", 200}}};
+  j["bodies"][0]["velocity"] = {1, -1};
+  const Scene scene = parseScene(j, "test.json");
+  MpmSolver<2, float> solver(scene, sampleBodies<2>(scene));
+  for (int i = 0; i < 20; ++i) solver.step(1e-4);
+  Snapshot direct, through_double;
+  solver.snapshotParticles(scene, direct);
+  putParticles(solver.particles(), scene, through_double);
+  ASSERT_EQ(direct.position.size(), std::size_t(solver.particleCount()));
+  EXPECT_EQ(direct.position, through_double.position);
+  EXPECT_EQ(direct.velocity, through_double.velocity);
+  EXPECT_EQ(direct.mass, through_double.mass);
+  EXPECT_EQ(direct.radius, through_double.radius);
+  EXPECT_NE(direct.velocity[0], (std::array<float, 3>{0, 0, 0})) << "a moving ball, not zeros";
+}
+
 TEST(Mpm, TwoAndThreeDimensionsAgreeOnAZUniformScene) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {1, -1};

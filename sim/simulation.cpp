@@ -1,7 +1,6 @@
 #include "sim/simulation.h"
 
 #include <algorithm>
-#include <cmath>
 
 #include "sim/core/collider.h"
 #include "sim/core/errors.h"

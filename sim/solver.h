@@ -113,7 +113,7 @@ class Solver {
   virtual std::vector<StageSeconds> stageSeconds() const { return {}; }
 
   virtual const Particles<D>& particles() const = 0;
-  virtual int particleCount() const { return particles().size(); }
+  virtual int particleCount() const { return particles().size(); }  // across MPI ranks: all
   // The particles' positions, velocities, masses and radii into a snapshot, in creation order. A
   // solver that keeps its state in float writes them from its own arrays: particles() would make
   // a double copy of them first.

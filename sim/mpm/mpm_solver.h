@@ -4,7 +4,8 @@
 // stages; each stage is a per-particle or per-node function below, and how they run over threads
 // (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/). The state
 // and the arithmetic of the explicit step are in the precision T, double or float
-// (mpm.precision); what the solver hands out is in double.
+// (mpm.precision); what the solver hands out is in double, but for snapshots, which it writes from
+// its own arrays.
 #pragma once
 
 #include <limits>

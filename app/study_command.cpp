@@ -101,9 +101,9 @@ const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip", 
 // quick: 21 runs in seconds, for CI (tests/study). full: the study of
 // docs/study.md (the 2D scenes over cell size too; the 3D smash at one cell size, as its
 // reference at half the cell size is already 15k particles). stability: the stability map (time
-// step against Young's modulus). Each includes steps beyond the explicit limit and dt = 0.01, the
-// report's Fig. 8 failure.
-// The report's Fig. 6 claim (pile heights x2 > x4 > x8 at 0.5 s), scored on each x8 row.
+// step against Young's modulus, and against the hardening of a small sticky-wall smash). Each
+// includes steps beyond the explicit limit and dt = 0.01, the report's Fig. 8 failure. The report's
+// Fig. 6 claim (pile heights x2 > x4 > x8 at 0.5 s), scored on each x8 row.
 Sweep pileClaimSweep(std::vector<double> dts, std::vector<int> particles_per_cell) {
   return {{"critical_density_x2", "critical_density_x4", "critical_density_x8"},
           {"density_hybrid"},
@@ -141,6 +141,16 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              {9},
              0.3,
              {1.4e4, 1.4e5, 1.4e6},
+             false},
+            // The hardened states of the flagship smash, in small: the paper's unbounded hardening
+            // and the flagship scenes' bounds, the default adaptive step beside the fixed ones.
+            {{"study_smash_sticky_3d", "study_smash_sticky_bounded_3d"},
+             {"mpm_mls", "mpm_mls_adaptive", "mpm_apic_semi"},
+             {2e-3, 1e-3, 5e-4, 4e-4, 3e-4, 2e-4, 1e-4, 5e-5},
+             {1},
+             {8},
+             0.15,
+             {0},
              false}};
   if (name == "axes") {  // precision, step policy and auto-sleep against the reference
     const std::vector<std::string> axes = {"mpm_mls", "mpm_mls_float", "mpm_mls_adaptive",

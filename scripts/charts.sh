@@ -169,7 +169,7 @@ cd "$work"
 # c = sqrt((lambda + 2 mu) / rho) for
 # nu = 0.2, rho = 400 kg/m^2, h = 0.01 m (method-notes.md), drawn over it.
 if [ -r "$stability" ]; then
-  latest "$stability" > stab
+  latest "$stability" | awk -F, '$2 == "column_thrown_ball"' > stab
   panels=$(cut -d, -f3 stab | sort -u)
   n=$(echo "$panels" | wc -l)
   {
@@ -192,6 +192,38 @@ if [ -r "$stability" ]; then
     echo 'unset multiplot'
   } >> charts.gp
   plots="$plots stability_map"
+
+  # The hardened states: the small sticky-wall smash with the paper's unbounded hardening and
+  # with the flagship scenes' bounds, each solver a row against dt; the dashed line is the mean
+  # step the default adaptive policy took (its run capped at the sweep's largest dt).
+  latest "$stability" | awk -F, '$2 ~ /^study_smash_sticky/' > hard
+  if [ -s hard ]; then
+    scenes=$(cut -d, -f2 hard | sort -u)
+    n=$(echo "$scenes" | wc -l)
+    {
+      echo "set output '$out/stability_hardened.png'"
+      echo "set terminal pngcairo size $((420 * n)),300 font ',10' noenhanced"
+      echo "set multiplot layout 1,$n title 'Stability of hardened snow: sticky-wall smash, 0.15 s (x: diverged, dot: finished; dashed: the default step, mean)'"
+      echo 'unset logscale; set logscale x; set xlabel "dt (s)"; unset ylabel; set key off; set xrange [3e-5:3e-3]; set yrange [0.5:3.5]'
+      echo 'set ytics ("explicit MLS" 1, "adaptive, capped" 2, "semi-implicit APIC" 3)'
+      for sc in $scenes; do
+        for st in finished diverged; do
+          awk -F, -v sc=$sc -v st=$st '$2 == sc && $10 == st {
+              row = $3 == "mpm_mls" ? 1 : $3 == "mpm_mls_adaptive" ? 2 : 3; print $4, row}' hard \
+            > "hard.$sc.$st"
+          [ -s "hard.$sc.$st" ] || echo "1 1" > "hard.$sc.$st"
+        done
+        mean=$(awk -F, -v sc=$sc '$2 == sc && $3 == "mpm_mls_adaptive" && $10 == "finished" \
+          {if ($4 > cap) {cap = $4; step = $7 / $12}} END {if (cap) print step}' hard)
+        echo "unset arrow"
+        [ -n "$mean" ] && echo "set arrow from $mean, graph 0 to $mean, graph 1 nohead lc rgb 'gray' dt 2"
+        echo "set title \"$sc\""
+        echo "plot 'hard.$sc.finished' u 1:2 w p pt 7 ps 1.2 lc rgb '#2ca02c', 'hard.$sc.diverged' u 1:2 w p pt 2 ps 1.5 lc rgb '#d62728'"
+      done
+      echo 'unset multiplot'
+    } >> charts.gp
+    plots="$plots stability_hardened"
+  fi
 fi
 
 gnuplot charts.gp 2> gnuplot.log || { cat gnuplot.log >&2; exit 1; }

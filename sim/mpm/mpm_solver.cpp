@@ -547,14 +547,9 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
           fixedCorotatedKirchhoffUpper<D, T>(particles_.F_E[p], rotation, particles_.lame[p]);
     }
   } else {  // the Lamé parameters and tau as well; the rotations are not kept
-    for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
-      const std::span<const int> group =
-          ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-      M rotation[returnMappingBatch];
-      plasticReturnMappingJ<T>(material_, group, particles_.F_E.data(), particles_.J_P.data(),
-                               rotation, particles_.V_E.data(), particles_.lame.data(),
-                               particles_.tau.data(), isa);
-    }
+    plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(), nullptr,
+                             particles_.V_E.data(), particles_.lame.data(), particles_.tau.data(),
+                             isa);
   }
   // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
   if constexpr (!Transfer::affine)

@@ -579,8 +579,8 @@ SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3L
 }
 
 // Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
-// (eq. 11), V_E the starting guess; R_E[at[l]] = U V^T, J_P' = J_P J_trial / J_clamped (as in 2D),
-// the Lamé parameters hardened anew and the stress of the new F_E.
+// (eq. 11), V_E the starting guess; R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial /
+// J_clamped (as in 2D), the Lamé parameters hardened anew and the stress of the new F_E.
 template <class T>
 SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
                                                    const int* at, Mat<3, T>* F_E, T* J_P,
@@ -605,7 +605,7 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
   for (int l = 0; l < int(ps.size()); ++l) {
     const int p = ps[l];
     storeLane(new_F_E, l, F_E[p]);
-    storeLane(rotation, l, R_E[at[l]]);
+    if (R_E) storeLane(rotation, l, R_E[at[l]]);
     storeLane(V, l, V_E[p]);
     const T J_P_before = J_P[p];
     J_P[p] = J_P[p] * J_trial[l] / J_clamped[l];
@@ -635,7 +635,8 @@ SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int>
     for (int l = 0; l < int(group.size()); ++l) {
       stays[l] = within[l];
       if (stays[l]) {
-        storeLane(X, l, R_E[first + l]);  // F_E, J_P and the Lamé parameters stay as they are
+        // F_E, J_P and the Lamé parameters stay as they are.
+        if (R_E) storeLane(X, l, R_E[first + l]);
       } else {
         beyond[count] = group[l];
         beyond_at[count++] = int(first) + l;
@@ -693,7 +694,7 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3
   for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> batch =
         ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-    const MappingArrays<T> arrays{F_E, J_P, R_E + first, V_E, lame, tau};
+    const MappingArrays<T> arrays{F_E, J_P, R_E ? R_E + first : nullptr, V_E, lame, tau};
     switch (isa) {
       case VectorIsa::avx512:
         returnMappingAvx512(m, batch, arrays);

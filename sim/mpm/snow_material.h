@@ -115,9 +115,10 @@ template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E, Mat<3, T>& V_E);
 // The 3D one for particles ps of the arrays F_E, J_P and V_E, with the results of the call above
-// for each, the rotations in the order of ps (R_E[i] that of particle ps[i]), and, so that no
-// rotation need be kept per particle, each one's Lamé parameters hardened anew where J_P changed
-// and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a particle per vector lane,
+// for each, the rotations in the order of ps (R_E[i] that of particle ps[i]; none if R_E is
+// null), and, so that no rotation need be kept per particle, each one's Lamé parameters hardened
+// anew where J_P changed and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a
+// particle per vector lane,
 // returnMappingLanes at a time, and those of each returnMappingBatch beyond their bounds gathered
 // for the SVD; compiled for isa (vectorIsa(); each build gives the same results).
 inline constexpr int returnMappingLanes = 8;

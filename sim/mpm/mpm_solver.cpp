@@ -71,6 +71,9 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
+  // A damper's grid-scale rate, about eta / (rho h^2), needs dt <= rho h^2 / (4 eta), the step of
+  // a signal speed 4 eta / (rho h): half the step measured to blow up in 2D and 3D (docs/mpm.md).
+  viscous_speed_ = 4 * material_.viscosity / grid_.h;
   placeScreens();
   colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
@@ -551,6 +554,15 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
                              particles_.V_E.data(), particles_.lame.data(), particles_.tau.data(),
                              isa);
   }
+  // The damper's stress from this step's velocity gradient, which C holds in every transfer.
+  if (material_.viscosity > 0)
+    for (const int p : ps) {
+      const T J = particles_.F_E[p].determinant() * particles_.J_P[p];
+      const Symmetric<D, T> damper =
+          viscousKirchhoffUpper<D, T>(particles_.C[p], J, T(material_.viscosity));
+      for (int k = 0; k < Symmetric<D, T>::entries; ++k)
+        particles_.tau[p].upper[k] += damper.upper[k];
+    }
   // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
   if constexpr (!Transfer::affine)
     for (const int p : ps) particles_.C[p].setZero();
@@ -603,7 +615,9 @@ Real MpmSolver<D, T>::measure(int p, PartMeasure& m) const {
   const T v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
   m.speed = std::max<Real>(m.speed, v);
-  m.signal = std::max<Real>(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
+  T signal = pWaveSpeed(particles_.lame[p], particles_.density[p]) + v;
+  if (viscous_speed_ > 0) signal = std::max(signal, T(viscous_speed_) / particles_.density[p]);
+  m.signal = std::max<Real>(m.signal, signal);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
          (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));

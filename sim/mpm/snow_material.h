@@ -23,6 +23,11 @@ struct SnowMaterial {
   // (docs/snow-at-scale.md); the upper one bounds the stiffest wave speed, hence the step.
   Real hardening_min = 0;
   Real hardening_max = 1e300;
+  // Shear viscosity eta (Pa s) of a Kelvin-Voigt damper beside the elastic stress, Kirchhoff
+  // J eta (grad v + grad v^T); not in the paper (0). Undamped, an explicit step rings, and as snow
+  // yields in tension at theta_s (less than theta_c) each ring stretches it a little more: the
+  // damper stops that swelling (docs/snow-at-scale.md).
+  Real viscosity = 0;
 
   // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
   Real mu0() const { return E0 / (2 * (1 + nu)); }
@@ -92,6 +97,16 @@ inline Symmetric<D, T> fixedCorotatedKirchhoffUpper(const Mat<D, T>& F_E, const 
       for (int a = 0; a < D; ++a) sum += (F_E(i, a) - R_E(i, a)) * F_E(j, a);
       tau.upper[k] = 2 * lame.mu * sum + (i == j ? pressure : T(0));
     }
+  return tau;
+}
+
+// The Kelvin-Voigt damper's Kirchhoff stress J eta (grad v + grad v^T), upper triangle, from the
+// particle's velocity gradient (APIC/MLS's affine matrix C), J = det F.
+template <int D, class T>
+inline Symmetric<D, T> viscousKirchhoffUpper(const Mat<D, T>& grad_v, T J, T eta) {
+  Symmetric<D, T> tau;
+  for (int i = 0, k = 0; i < D; ++i)
+    for (int j = i; j < D; ++j, ++k) tau.upper[k] = J * eta * (grad_v(i, j) + grad_v(j, i));
   return tau;
 }
 

@@ -259,6 +259,7 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.xi = f.number("xi", m.xi, 0, 1e3);
   m.hardening_min = f.number("hardening_min", m.hardening_min, 0, 1);
   m.hardening_max = f.number("hardening_max", m.hardening_max, 1, 1e300);
+  m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
   f.finish();
   return m;
 }
@@ -573,6 +574,10 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
   s.mpm = parseMpm(f.object("mpm", false), file, s.dimension);
   s.material = parseMaterial(f.object("material", false), file);
+  if (s.material.viscosity > 0 && s.mpm.integrator == MpmIntegrator::SemiImplicit)
+    throw InputError(file +
+                     ": material.viscosity runs only mpm.integrator \"explicit\" (the "
+                     "semi-implicit solve has no damper in its stress differential); set it to 0");
   if (const Json* colliders = f.array("colliders", false))
     for (size_t i = 0; i < colliders->size(); ++i)
       s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));

@@ -804,35 +804,54 @@ TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
 
 // An elastic bar (no plasticity, no hardening, nu = 0 so the axial stress is E times the strain)
 // set ringing in its first free-free axial mode, u = A cos(pi x / L) sin(omega t): it vibrates
-// at omega = pi c / L with c = sqrt(E / rho), period T = 2 L / c. The period is measured from the
-// zero crossings of the mean axial velocity of the bar's right quarter.
-TYPED_TEST(MpmPhysics, ElasticBarVibratesAtItsAnalyticFrequency) {
-  const Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05;
-  Json j = Json::parse(R"({
-    "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
-    "grid": {"cells": [60, 12], "cell_size": 0.005},
-    "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
-    "particles_per_cell": 4,
-    "mpm": {"transfer": "apic"},
-    "material": {"E0": 100000, "nu": 0, "theta_c": 0.9, "theta_s": 0.9, "xi": 0},
-    "bodies": [{"shape": "box", "center": [0.15, 0.03], "size": [0.2, 0.02], "density": 400}]
-  })");
-  const Scene scene = parseScene(j, "bar.json");
-  Particles<2> particles = sampleBodies<2>(scene);
-  const Real left = 0.15 - length / 2;
-  for (int i = 0; i < particles.size(); ++i)
-    particles.v[i] = Vec<2>(amplitude * std::cos(M_PI * (particles.x[i][0] - left) / length), 0);
-  MpmSolver<2, TypeParam> solver(scene, std::move(particles));
+// at omega = pi c / L with c = sqrt(E / rho), period T = 2 L / c. Its end velocity is the mean
+// axial velocity of the bar's right quarter.
+template <class T>
+struct RingingBar {
+  static constexpr Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05, left = 0.05;
+  static Real period() { return 2 * length / std::sqrt(E / rho); }
 
-  const Real c = std::sqrt(E / rho), period = 2 * length / c;
-  auto endVelocity = [&] {
+  explicit RingingBar(Real viscosity)
+      : scene(sceneWith(viscosity)), solver(scene, particlesOf(scene)) {}
+
+  static Scene sceneWith(Real viscosity) {
+    Json j = Json::parse(R"({
+      "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
+      "grid": {"cells": [60, 12], "cell_size": 0.005},
+      "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
+      "particles_per_cell": 4,
+      "mpm": {"transfer": "apic"},
+      "material": {"E0": 100000, "nu": 0, "theta_c": 0.9, "theta_s": 0.9, "xi": 0},
+      "bodies": [{"shape": "box", "center": [0.15, 0.03], "size": [0.2, 0.02], "density": 400}]
+    })");
+    j["material"]["viscosity"] = viscosity;
+    return parseScene(j, "bar.json");
+  }
+  static Particles<2> particlesOf(const Scene& scene) {
+    Particles<2> particles = sampleBodies<2>(scene);
+    for (int i = 0; i < particles.size(); ++i)
+      particles.v[i] = Vec<2>(amplitude * std::cos(M_PI * (particles.x[i][0] - left) / length), 0);
+    return particles;
+  }
+  Real endVelocity() const {
     const Particles<2>& p = solver.particles();
     Real v = 0;
     int n = 0;
     for (int i = 0; i < p.size(); ++i)
       if (p.x[i][0] > left + 0.75 * length) v += p.v[i][0], ++n;
     return v / n;
-  };
+  }
+
+  Scene scene;
+  MpmSolver<2, T> solver;
+};
+
+// The bar vibrates at its analytic period, measured from the zero crossings of its end velocity.
+TYPED_TEST(MpmPhysics, ElasticBarVibratesAtItsAnalyticFrequency) {
+  RingingBar<TypeParam> bar(0);
+  MpmSolver<2, TypeParam>& solver = bar.solver;
+  const Real period = bar.period();
+  auto endVelocity = [&] { return bar.endVelocity(); };
   // The end velocity starts at -amplitude-ish and crosses zero at T/4, 3T/4, 5T/4, ...
   std::vector<Real> crossings;
   Real t = 0, previous = endVelocity();
@@ -851,4 +870,30 @@ TYPED_TEST(MpmPhysics, ElasticBarVibratesAtItsAnalyticFrequency) {
   // stiffness come out 23% too large on a bar four cells thick.
   EXPECT_NEAR(measured / period, 1.0, 0.02)
       << "measured period " << measured << " s, analytic " << period << " s";
+}
+
+// The same bar with a Kelvin-Voigt damper (material.viscosity): its axial stress gains
+// 2 eta dv/dx, so the mode rings down as e^(-alpha t) with alpha = eta k^2 / rho, k = pi / L. The
+// end velocity's peaks one period apart shrink by e^(-alpha T); without the damper they keep.
+TYPED_TEST(MpmPhysics, DampedBarRingsDownAtTheDampersRate) {
+  using Bar = RingingBar<TypeParam>;
+  auto peakRatio = [&](Real eta) {
+    Bar bar(eta);
+    // The largest |v| of each half period between zero crossings.
+    std::vector<Real> peaks;
+    Real previous = bar.endVelocity(), peak = std::abs(previous);
+    while (peaks.size() < 4) {
+      bar.solver.step(bar.solver.stableTimeStep());
+      const Real v = bar.endVelocity();
+      if ((previous < 0) != (v < 0)) peaks.push_back(peak), peak = 0;
+      peak = std::max(peak, std::abs(v));
+      previous = v;
+    }
+    return peaks[3] / peaks[1];  // whole half periods, one period apart
+  };
+  const Real eta = 32, k = M_PI / Bar::length;
+  const Real expected = std::exp(-eta * k * k / Bar::rho * Bar::period());  // 0.607; measured 0.606
+  const Real undamped = peakRatio(0), damped = peakRatio(eta);
+  EXPECT_GT(undamped, 0.97) << "the bar alone keeps its ringing";
+  EXPECT_NEAR(damped / undamped, expected, 0.01 * expected) << "damped " << damped;
 }

@@ -110,6 +110,20 @@ TEST(Scene, HardeningBoundsAreReadAndChecked) {
             std::string::npos);
 }
 
+TEST(Scene, ViscosityIsReadAndChecked) {
+  EXPECT_DOUBLE_EQ(loadScene(writeTemp(kMinimal), {"material.viscosity=16"}).material.viscosity,
+                   16);
+  EXPECT_DOUBLE_EQ(loadScene(writeTemp(kMinimal)).material.viscosity, 0) << "the paper has none";
+  EXPECT_NE(errorOf(kMinimal, {"material.viscosity=-1"})
+                .find("material.viscosity: -1 is out of range; allowed: [0, 1e+06]"),
+            std::string::npos)
+      << errorOf(kMinimal, {"material.viscosity=-1"});
+  EXPECT_NE(errorOf(kMinimal, {"solver=mpm", "material.viscosity=16", "mpm.precision=double",
+                               "mpm.integrator=semi_implicit"})
+                .find("material.viscosity runs only mpm.integrator \"explicit\""),
+            std::string::npos);
+}
+
 TEST(Scene, BodyOutsideTheGridIsRejected) {
   const std::string message = errorOf(kMinimal, {"bodies.0.center=[0.095,0.06]"});
   EXPECT_NE(message.find("bodies[0].center: the body reaches outside the grid along axis x"),

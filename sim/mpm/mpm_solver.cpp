@@ -71,9 +71,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
-  // A damper's grid-scale rate, about eta / (rho h^2), needs dt <= rho h^2 / (4 eta), the step of
-  // a signal speed 4 eta / (rho h): half the step measured to blow up in 2D and 3D (docs/mpm.md).
-  viscous_speed_ = 4 * material_.viscosity / grid_.h;
+
   placeScreens();
   colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
@@ -82,6 +80,16 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   withKernel(params_.kernel, [&]<class Kernel>() {
     parallelFor(&schedule_, particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
   });
+  // The damper's grid-scale rate, about eta V_p^0 / (m_p h^2), needs dt <= rho h^2 / (4 eta) with
+  // rho = m_p / V_p^0, the step of a signal speed 4 eta / (rho h): 0.4-0.6 of the step measured to
+  // blow up in 2D and 3D (docs/mpm.md). The lightest particle sets it, once for the run.
+  if (material_.viscosity > 0) {
+    Real lightest = std::numeric_limits<Real>::infinity();
+    for (int p = 0; p < particles_.size(); ++p)
+      if (particles_.volume[p] > 0)
+        lightest = std::min(lightest, Real(particles_.mass[p]) / Real(particles_.volume[p]));
+    if (std::isfinite(lightest)) viscous_speed_ = 4 * material_.viscosity / (lightest * grid_.h);
+  }
   // Every rank has built the whole scene and its volumes alike; each keeps its slab's particles.
   if (slabs_.distributed()) {
     slabs_.keepOwn(particles_);
@@ -557,9 +565,8 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
   // The damper's stress from this step's velocity gradient, which C holds in every transfer.
   if (material_.viscosity > 0)
     for (const int p : ps) {
-      const T J = particles_.F_E[p].determinant() * particles_.J_P[p];
       const Symmetric<D, T> damper =
-          viscousKirchhoffUpper<D, T>(particles_.C[p], J, T(material_.viscosity));
+          viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
       for (int k = 0; k < Symmetric<D, T>::entries; ++k)
         particles_.tau[p].upper[k] += damper.upper[k];
     }
@@ -615,9 +622,7 @@ Real MpmSolver<D, T>::measure(int p, PartMeasure& m) const {
   const T v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
   m.speed = std::max<Real>(m.speed, v);
-  T signal = pWaveSpeed(particles_.lame[p], particles_.density[p]) + v;
-  if (viscous_speed_ > 0) signal = std::max(signal, T(viscous_speed_) / particles_.density[p]);
-  m.signal = std::max<Real>(m.signal, signal);
+  m.signal = std::max<Real>(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
          (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
@@ -702,8 +707,9 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
 
 template <int D, class T>
 Real MpmSolver<D, T>::cflTimeStep() const {
-  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md).
-  const Real fastest = std::max(fastest_signal_, collider_speed_);
+  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md), and
+  // no longer than the damper allows.
+  const Real fastest = std::max({fastest_signal_, collider_speed_, viscous_speed_});
   return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
 }
 

@@ -243,8 +243,8 @@ class MpmSolver final : public Solver<D> {
     return clear ? uncovered_colliders_ : every_collider_;
   }
   Real collider_speed_ = 0;  // the fastest any point of a collider moves (fastestColliderSpeed)
-  // The damper's signal speed times the particle's density: an explicit step resolves the
-  // damper's grid-scale rate as it does the elastic wave (docs/mpm.md).
+  // The damper's signal speed 4 eta / (rho h): an explicit step resolves the damper's grid-scale
+  // rate as it does the elastic wave (docs/mpm.md).
   Real viscous_speed_ = 0;
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;

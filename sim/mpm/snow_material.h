@@ -23,8 +23,8 @@ struct SnowMaterial {
   // (docs/snow-at-scale.md); the upper one bounds the stiffest wave speed, hence the step.
   Real hardening_min = 0;
   Real hardening_max = 1e300;
-  // Shear viscosity eta (Pa s) of a Kelvin-Voigt damper beside the elastic stress, Kirchhoff
-  // J eta (grad v + grad v^T); not in the paper (0). Undamped, an explicit step rings, and as snow
+  // Viscosity eta (Pa s) of a Kelvin-Voigt damper beside the elastic stress, Kirchhoff
+  // eta (grad v + grad v^T); not in the paper (0). Undamped, an explicit step rings, and as snow
   // yields in tension at theta_s (less than theta_c) each ring stretches it a little more: the
   // damper stops that swelling (docs/snow-at-scale.md).
   Real viscosity = 0;
@@ -100,13 +100,16 @@ inline Symmetric<D, T> fixedCorotatedKirchhoffUpper(const Mat<D, T>& F_E, const 
   return tau;
 }
 
-// The Kelvin-Voigt damper's Kirchhoff stress J eta (grad v + grad v^T), upper triangle, from the
-// particle's velocity gradient (APIC/MLS's affine matrix C), J = det F.
+// The Kelvin-Voigt damper's Kirchhoff stress eta (grad v + grad v^T), upper triangle, from the
+// particle's velocity gradient (the transfer's C). Kirchhoff rather than Cauchy: its Cauchy
+// stress eta / J (...) weakens as snow dilates, as the hardening softens it, and the force it
+// puts on a particle's nodes, V_p^0 eta grad v, damps them at a rate that J does not change, so
+// one step bound holds however far the snow is torn (MpmSolver's viscous_speed_).
 template <int D, class T>
-inline Symmetric<D, T> viscousKirchhoffUpper(const Mat<D, T>& grad_v, T J, T eta) {
+inline Symmetric<D, T> viscousKirchhoffUpper(const Mat<D, T>& grad_v, T eta) {
   Symmetric<D, T> tau;
   for (int i = 0, k = 0; i < D; ++i)
-    for (int j = i; j < D; ++j, ++k) tau.upper[k] = J * eta * (grad_v(i, j) + grad_v(j, i));
+    for (int j = i; j < D; ++j, ++k) tau.upper[k] = eta * (grad_v(i, j) + grad_v(j, i));
   return tau;
 }
 

@@ -45,10 +45,13 @@ std::string StepWatch::check(const Simulation& simulation) {
                   "the snow hardened. Its stiffest elastic wave runs at %.3g m/s (%.3g at the "
                   "start): compacted to J_P = %.3g, that snow is exp(xi (1 - J_P)) = %.3g times as "
                   "stiff (material.xi %g), and an explicit step must resolve the wave. A smaller "
-                  "material.xi, or mpm.integrator=semi_implicit (whose step has no wave term), "
-                  "keeps a larger step",
+                  "material.xi%s keeps a larger step",
                   limit.wave_speed, initial_limit_.wave_speed, limit.plastic_j, limit.hardening,
-                  scene_.material.xi);
+                  scene_.material.xi,
+                  // The semi-implicit integrator refuses a damper.
+                  scene_.material.viscosity > 0
+                      ? ""
+                      : ", or mpm.integrator=semi_implicit (whose step has no wave term),");
   else
     std::snprintf(text + n, sizeof text - n,
                   "the snow sped up. It moves at %.3g m/s (%.3g at the start; its elastic wave "

@@ -203,14 +203,15 @@ if [ -r "$stability" ]; then
     {
       echo "set output '$out/stability_hardened.png'"
       echo "set terminal pngcairo size $((420 * n)),300 font ',10' noenhanced"
-      echo "set multiplot layout 1,$n title 'Stability of hardened snow: sticky-wall smash, 0.15 s (x: diverged, dot: finished; dashed: the default step, mean)'"
+      echo "set multiplot layout 1,$n title 'Stability of hardened snow: sticky-wall smash, 0.15 s (x: diverged, dot: finished, square: any other end; dashed: the default step, mean)'"
       echo 'unset logscale; set logscale x; set xlabel "dt (s)"; unset ylabel; set key off; set xrange [3e-5:3e-3]; set yrange [0.5:3.5]'
       echo 'set ytics ("explicit MLS" 1, "adaptive, capped" 2, "semi-implicit APIC" 3)'
       for sc in $scenes; do
-        for st in finished diverged; do
-          awk -F, -v sc=$sc -v st=$st '$2 == sc && $10 == st {
-              row = $3 == "mpm_mls" ? 1 : $3 == "mpm_mls_adaptive" ? 2 : 3; print $4, row}' hard \
-            > "hard.$sc.$st"
+        for st in finished diverged other; do
+          awk -F, -v sc=$sc -v st=$st '$2 == sc && ($10 == st ||
+              (st == "other" && $10 != "finished" && $10 != "diverged")) {
+              row = $3 == "mpm_mls" ? 1 : $3 == "mpm_mls_adaptive" ? 2 : $3 == "mpm_apic_semi" ? 3 : 0
+              if (row) print $4, row}' hard > "hard.$sc.$st"
           [ -s "hard.$sc.$st" ] || echo "1 1" > "hard.$sc.$st"
         done
         mean=$(awk -F, -v sc=$sc '$2 == sc && $3 == "mpm_mls_adaptive" && $10 == "finished" \
@@ -218,7 +219,7 @@ if [ -r "$stability" ]; then
         echo "unset arrow"
         [ -n "$mean" ] && echo "set arrow from $mean, graph 0 to $mean, graph 1 nohead lc rgb 'gray' dt 2"
         echo "set title \"$sc\""
-        echo "plot 'hard.$sc.finished' u 1:2 w p pt 7 ps 1.2 lc rgb '#2ca02c', 'hard.$sc.diverged' u 1:2 w p pt 2 ps 1.5 lc rgb '#d62728'"
+        echo "plot 'hard.$sc.finished' u 1:2 w p pt 7 ps 1.2 lc rgb '#2ca02c', 'hard.$sc.diverged' u 1:2 w p pt 2 ps 1.5 lc rgb '#d62728', 'hard.$sc.other' u 1:2 w p pt 5 ps 1.2 lc rgb '#ff7f0e'"
       done
       echo 'unset multiplot'
     } >> charts.gp

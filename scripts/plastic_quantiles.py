@@ -13,6 +13,11 @@ import sys
 QUANTILES = (0.01, 0.1, 0.5, 0.9, 0.99)
 
 
+SIZES = {"char": "b", "uchar": "B", "int8": "b", "uint8": "B", "short": "h", "ushort": "H",
+         "int16": "h", "uint16": "H", "int": "i", "uint": "I", "int32": "i", "uint32": "I",
+         "float": "f", "float32": "f", "double": "d", "float64": "d"}
+
+
 def columns(path):
     try:
         data = open(path, "rb").read()
@@ -21,20 +26,25 @@ def columns(path):
     if b"end_header\n" not in data:
         sys.exit(f"{path}: not a PLY file (no end_header)")
     end = data.index(b"end_header\n") + len(b"end_header\n")
-    names, types, count = [], [], None
-    for line in data[:end].decode().splitlines():
+    names, types, count, binary = [], [], None, False
+    for line in data[:end].decode(errors="replace").splitlines():
         words = line.split()
-        if words[:2] == ["element", "vertex"]:
+        if words[:2] == ["format", "binary_little_endian"]:
+            binary = True
+        elif words[:2] == ["element", "vertex"]:
             count = int(words[2])
         elif words[:1] == ["element"] and words[1] != "vertex":
             break  # the vertices come first; a 2D frame's node densities follow them
-        elif words[:1] == ["property"]:
-            types.append("f" if words[1] == "float" else "i")
+        elif words[:1] == ["property"] and len(words) == 3 and words[1] in SIZES:
+            types.append(SIZES[words[1]])
             names.append(words[2])
+        elif words[:1] == ["property"]:
+            sys.exit(f"{path}: unsupported vertex property '{line}'")
     row = struct.Struct("<" + "".join(types))
-    if (count is None or "plastic_j" not in names or "mass" not in names
+    if (not binary or not count or "plastic_j" not in names or "mass" not in names
             or len(data) < end + count * row.size):
-        sys.exit(f"{path}: not a snowsim frame (needs a vertex element with plastic_j and mass)")
+        sys.exit(f"{path}: not a snowsim frame (needs binary little-endian vertices, at least one, "
+                 "with plastic_j and mass)")
     j, m = names.index("plastic_j"), names.index("mass")
     values = [row.unpack_from(data, end + i * row.size) for i in range(count)]
     return [(v[j], v[m]) for v in values]

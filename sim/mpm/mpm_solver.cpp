@@ -58,6 +58,11 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   if (!double_precision && params_.integrator == MpmIntegrator::SemiImplicit)
     throw InputError(scene.file +
                      ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"");
+  // Also checked where a scene file is read; a scene changed in code (the study) meets it here.
+  if (material_.viscosity > 0 && semiImplicit())
+    throw InputError(scene.file +
+                     ": material.viscosity runs only mpm.integrator \"explicit\" (the "
+                     "semi-implicit solve has no damper in its stress differential)");
   if (slabs_.distributed() && semiImplicit())
     throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
                      "across MPI ranks only \"explicit\" is distributed");
@@ -81,8 +86,8 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
     parallelFor(&schedule_, particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
   });
   // The damper's grid-scale rate, about eta V_p^0 / (m_p h^2), needs dt <= rho h^2 / (4 eta) with
-  // rho = m_p / V_p^0, the step of a signal speed 4 eta / (rho h): 0.4-0.6 of the step measured to
-  // blow up in 2D and 3D (docs/mpm.md). The lightest particle sets it, once for the run.
+  // rho = m_p / V_p^0, the step of a signal speed 4 eta / (rho h): 0.4-0.65 of the step measured
+  // to blow up in 2D and 3D (docs/mpm.md). The lightest particle sets it, once for the run.
   if (material_.viscosity > 0) {
     Real lightest = std::numeric_limits<Real>::infinity();
     for (int p = 0; p < particles_.size(); ++p)
@@ -231,7 +236,13 @@ void MpmSolver<D, T>::restOrStir(int p, const V& x_before) {
   calm = resting ? calm + 1 : 0;
   if (calm >= params_.auto_sleep.steps) {
     // Falls asleep at rest: its slow drift and its affine velocity stop feeding the grid's
-    // momentum.
+    // momentum, and the damper's stress of that velocity gradient stops feeding its forces.
+    if (material_.viscosity > 0) {
+      const Symmetric<D, T> damper =
+          viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
+      for (int k = 0; k < Symmetric<D, T>::entries; ++k)
+        particles_.tau[p].upper[k] -= damper.upper[k];
+    }
     particles_.v[p].setZero();
     particles_.C[p].setZero();
   }
@@ -707,9 +718,13 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
 
 template <int D, class T>
 Real MpmSolver<D, T>::cflTimeStep() const {
-  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md), and
-  // no longer than the damper allows.
-  const Real fastest = std::max({fastest_signal_, collider_speed_, viscous_speed_});
+  // dt <= C h / (c + |v|)max, c = sqrt((lambda + 2 mu) / rho) with hardening (docs/mpm.md). With
+  // a damper, a wave of rate omega = 2 s / h (s = c + |v|) damped at gamma = 2 s_d / h (s_d its
+  // signal speed) is stable while (omega dt)^2 + 2 gamma dt <= 4: dt <= h / S with
+  // S = (s_d + sqrt(s_d^2 + 4 s^2)) / 2, which is s without the damper and s_d without the wave.
+  const Real s = fastest_signal_, s_d = viscous_speed_;
+  const Real signal = s_d > 0 ? (s_d + std::sqrt(s_d * s_d + 4 * s * s)) / 2 : s;
+  const Real fastest = std::max(signal, collider_speed_);
   return fastest > 0 ? params_.cfl * grid_.h / fastest : std::numeric_limits<Real>::infinity();
 }
 
@@ -728,7 +743,8 @@ Real MpmSolver<D, T>::stableTimeStep() const {
 
 template <int D, class T>
 StepLimit MpmSolver<D, T>::stepLimit() const {
-  // The particle of the largest signal speed: c_p + |v_p| for the CFL step, |v_p| semi-implicit.
+  // The particle of the largest signal speed: c_p + |v_p| for the CFL step (which a damper's
+  // constant term shortens further), |v_p| semi-implicit.
   StepLimit limit{stableTimeStep()};
   Real largest = -1;
   for (int p = 0; p < particles_.size(); ++p) {

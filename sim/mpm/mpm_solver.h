@@ -57,6 +57,7 @@ class MpmSolver final : public Solver<D> {
   const std::vector<T>& plasticJ() const { return particles_.J_P; }
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
   LameOf<T> lame(int p) const { return particles_.lame[p]; }
+  const std::vector<Symmetric<D, T>>& stress() const { return particles_.tau; }
   // Auto-sleep: how many particle scatters this process's still blocks added, kept, instead of
   // scattering again (not checkpointed: counted from construction or resume).
   long keptScatters() const { return schedule_.keptScatters(); }
@@ -68,8 +69,8 @@ class MpmSolver final : public Solver<D> {
   // The colliders where they were at the start of the last step.
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
   const MpmParams& params() const { return params_; }
-  // The CFL step C h / (c + |v|)max of the current state, whether or not dt is adaptive, and at
-  // most C h / (a collider's fastest surface speed).
+  // The CFL step C h / (c + |v|)max of the current state (shorter with a damper, cflTimeStep),
+  // whether or not dt is adaptive, and at most C h / (a collider's fastest surface speed).
   Real cflTimeStep() const;
   // The advection limit C h / |v|max that bounds the semi-implicit step (colliders as above).
   Real advectionTimeStep() const;

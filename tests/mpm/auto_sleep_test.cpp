@@ -111,6 +111,28 @@ TEST(AutoSleep, BlockAtRestFallsAsleepAndStaysPut) {
   EXPECT_EQ(fastest, 0);  // asleep, it keeps no drift
 }
 
+// With a damper (material.viscosity) a particle falls asleep ringing a little: it takes the
+// damper's stress of that last velocity gradient out with it, and keeps scattering its elastic
+// stress alone.
+TEST(AutoSleep, ASleepingDampedBlockKeepsOnlyItsElasticStress) {
+  Json j = pileAndBall();
+  j["bodies"].erase(1);
+  j["material"] = {{"viscosity", 16}};
+  auto solver = makeSolver(j);
+  runUntil(solver, 0.3);
+  ASSERT_EQ(solver.autoSleep().asleep_now, solver.particles().size());
+  Real largest = 0, furthest = 0;
+  for (size_t p = 0; p < solver.stress().size(); ++p) {
+    const Mat<2>& F = solver.elasticGradient()[p];
+    const Mat<2> elastic =
+        fixedCorotatedKirchhoffUpper<2, Real>(F, polarRotation<2>(F), solver.lame(int(p))).matrix();
+    largest = std::max(largest, elastic.norm());
+    furthest = std::max(furthest, (solver.stress()[p].matrix() - elastic).norm());
+  }
+  EXPECT_GT(largest, 100) << "the block's weight stresses it (Pa)";
+  EXPECT_LT(furthest, 1e-9 * largest);
+}
+
 TEST(AutoSleep, SleepingPileHitByABallWakesWhereHitAndStopsTheBall) {
   Json j = pileAndBall();
   auto asleep = makeSolver(j);

@@ -808,7 +808,8 @@ TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
 // axial velocity of the bar's right quarter.
 template <class T>
 struct RingingBar {
-  static constexpr Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05, left = 0.05;
+  // Its JSON body: centre 0.15, size 0.2.
+  static constexpr Real length = 0.2, E = 1e5, rho = 400, amplitude = 0.05, left = 0.15 - 0.1;
   static Real period() { return 2 * length / std::sqrt(E / rho); }
 
   explicit RingingBar(Real viscosity)
@@ -851,15 +852,14 @@ TYPED_TEST(MpmPhysics, ElasticBarVibratesAtItsAnalyticFrequency) {
   RingingBar<TypeParam> bar(0);
   MpmSolver<2, TypeParam>& solver = bar.solver;
   const Real period = bar.period();
-  auto endVelocity = [&] { return bar.endVelocity(); };
   // The end velocity starts at -amplitude-ish and crosses zero at T/4, 3T/4, 5T/4, ...
   std::vector<Real> crossings;
-  Real t = 0, previous = endVelocity();
+  Real t = 0, previous = bar.endVelocity();
   while (t < 2.2 * period && crossings.size() < 3) {
     const Real dt = solver.stableTimeStep();
     solver.step(dt);
     t += dt;
-    const Real v = endVelocity();
+    const Real v = bar.endVelocity();
     if ((previous < 0) != (v < 0)) crossings.push_back(t - dt * v / (v - previous));
     previous = v;
   }
@@ -882,14 +882,14 @@ TYPED_TEST(MpmPhysics, DampedBarRingsDownAtTheDampersRate) {
     // The largest |v| of each half period between zero crossings.
     std::vector<Real> peaks;
     Real previous = bar.endVelocity(), peak = std::abs(previous);
-    while (peaks.size() < 4) {
+    while (peaks.size() < 4 && bar.solver.time() < 3 * Bar::period()) {
       bar.solver.step(bar.solver.stableTimeStep());
       const Real v = bar.endVelocity();
       if ((previous < 0) != (v < 0)) peaks.push_back(peak), peak = 0;
       peak = std::max(peak, std::abs(v));
       previous = v;
     }
-    return peaks[3] / peaks[1];  // whole half periods, one period apart
+    return peaks.size() == 4 ? peaks[3] / peaks[1] : 0;  // whole half periods, a period apart
   };
   const Real eta = 32, k = M_PI / Bar::length;
   const Real expected = std::exp(-eta * k * k / Bar::rho * Bar::period());  // 0.607; measured 0.606

@@ -203,7 +203,7 @@ if [ -r "$stability" ]; then
     {
       echo "set output '$out/stability_hardened.png'"
       echo "set terminal pngcairo size $((420 * n)),300 font ',10' noenhanced"
-      echo "set multiplot layout 1,$n title 'Stability of hardened snow: sticky-wall smash, 0.15 s (x: diverged, dot: finished, square: any other end; dashed: the default step, mean)'"
+      echo "set multiplot layout 1,$n title 'Hardened snow, sticky-wall smash, 0.15 s (x: diverged, dot: finished, square: other; dashed: default step)'"
       echo 'unset logscale; set logscale x; set xlabel "dt (s)"; unset ylabel; set key off; set xrange [3e-5:3e-3]; set yrange [0.5:3.5]'
       echo 'set ytics ("explicit MLS" 1, "adaptive, capped" 2, "semi-implicit APIC" 3)'
       for sc in $scenes; do

@@ -76,7 +76,6 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
-
   placeScreens();
   colliders_move_ = collider_speed_ > 0;
   // Paper section 4 step 2, done once before the first step: densities and volumes from the grid.
@@ -237,12 +236,7 @@ void MpmSolver<D, T>::restOrStir(int p, const V& x_before) {
   if (calm >= params_.auto_sleep.steps) {
     // Falls asleep at rest: its slow drift and its affine velocity stop feeding the grid's
     // momentum, and the damper's stress of that velocity gradient stops feeding its forces.
-    if (material_.viscosity > 0) {
-      const Symmetric<D, T> damper =
-          viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
-      for (int k = 0; k < Symmetric<D, T>::entries; ++k)
-        particles_.tau[p].upper[k] -= damper.upper[k];
-    }
+    if (material_.viscosity > 0) addDamperStress(p, -1);
     particles_.v[p].setZero();
     particles_.C[p].setZero();
   }
@@ -575,15 +569,18 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
   }
   // The damper's stress from this step's velocity gradient, which C holds in every transfer.
   if (material_.viscosity > 0)
-    for (const int p : ps) {
-      const Symmetric<D, T> damper =
-          viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
-      for (int k = 0; k < Symmetric<D, T>::entries; ++k)
-        particles_.tau[p].upper[k] += damper.upper[k];
-    }
+    for (const int p : ps) addDamperStress(p, 1);
   // PIC/FLIP keeps no affine velocity: C must not feed the next scatter.
   if constexpr (!Transfer::affine)
     for (const int p : ps) particles_.C[p].setZero();
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::addDamperStress(int p, T sign) {
+  const Symmetric<D, T> damper =
+      viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
+  for (int k = 0; k < Symmetric<D, T>::entries; ++k)
+    particles_.tau[p].upper[k] += sign * damper.upper[k];
 }
 
 template <int D, class T>

@@ -154,6 +154,9 @@ class MpmSolver final : public Solver<D> {
   // scatter reads: whatever changes F_E must set tau.
   template <class Transfer>
   void returnMapping(std::span<const int> ps, VectorIsa isa);
+  // tau += sign times the damper's stress of C (material.viscosity): 1 after the return
+  // mapping, -1 as the particle falls asleep and C stops.
+  void addDamperStress(int p, T sign);
   void collideParticle(int p);  // 9. particle-based body collisions (section 8)
   void advect(int p, T dt);     // 10. x += dt v, kept out of colliders and in the domain
 

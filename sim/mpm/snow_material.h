@@ -136,9 +136,9 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
 // for each, the rotations in the order of ps (R_E[i] that of particle ps[i]; none if R_E is
 // null), and, so that no rotation need be kept per particle, each one's Lamé parameters hardened
 // anew where J_P changed and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a
-// particle per vector lane,
-// returnMappingLanes at a time, and those of each returnMappingBatch beyond their bounds gathered
-// for the SVD; compiled for isa (vectorIsa(); each build gives the same results).
+// particle per vector lane, returnMappingLanes at a time, and those of each returnMappingBatch
+// beyond their bounds gathered for the SVD; compiled for isa (vectorIsa(); each build gives the
+// same results).
 inline constexpr int returnMappingLanes = 8;
 inline constexpr int returnMappingBatch = 64;
 template <class T>

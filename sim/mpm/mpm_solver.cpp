@@ -195,6 +195,7 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
     trialDeformation(p, dt);                     // 7
   }
   returnMapping<Transfer>(std::span<const int>(awake, count), isa);
+  BatchMaxima maxima;
   for (int i = 0, a = 0; i < int(batch.size()); ++i) {
     const int p = batch[i];
     if (a < count && awake[a] == p) {
@@ -205,8 +206,9 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
     } else {
       ++m.asleep;
     }
-    shares[i] = measure(p, m);
+    shares[i] = measure(p, maxima);
   }
+  maxima.foldInto(m);
 }
 
 template <int D, class T>
@@ -626,11 +628,11 @@ void MpmSolver<D, T>::advect(int p, T dt) {
 }
 
 template <int D, class T>
-Real MpmSolver<D, T>::measure(int p, PartMeasure& m) const {
+Real MpmSolver<D, T>::measure(int p, BatchMaxima& m) const {
   const T v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
-  m.speed = std::max<Real>(m.speed, v);
-  m.signal = std::max<Real>(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
+  m.speed = std::max(m.speed, v);
+  m.signal = std::max(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
          (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
@@ -641,8 +643,10 @@ void MpmSolver<D, T>::measureParticles() {
   part_measures_.resize(schedule_.prepare());
   schedule_.passOverParticles("measure particles", particles_.x, part_measures_,
                               [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
+                                BatchMaxima maxima;
                                 for (size_t i = 0; i < batch.size(); ++i)
-                                  shares[i] = measure(batch[i], m);
+                                  shares[i] = measure(batch[i], maxima);
+                                maxima.foldInto(m);
                               });
   collectMeasures();
 }

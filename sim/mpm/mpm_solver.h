@@ -177,6 +177,17 @@ class MpmSolver final : public Solver<D> {
     bool finite = true;
     long asleep = 0;  // particles that slept through the pass
   };
+  // A batch's maxima, held in registers over its loop and folded into its part's measure after
+  // it: a running maximum kept in memory makes each particle wait on the last one's store.
+  struct BatchMaxima {
+    T speed = 0, signal = 0;
+    bool finite = true;
+    void foldInto(PartMeasure& m) const {
+      m.speed = std::max<Real>(m.speed, speed);
+      m.signal = std::max<Real>(m.signal, signal);
+      m.finite = m.finite && finite;
+    }
+  };
   // 8, 7, 9, 10 for a batch of the particle pass, each particle measured into m; shares[i] is
   // batch[i]'s energy.
   template <class Transfer, class Kernel>
@@ -201,8 +212,9 @@ class MpmSolver final : public Solver<D> {
   template <class Kernel>
   bool stencilMoves(const V& x) const;
   bool touchedByMovingCollider(const V& x) const;
-  // Measures particle p into its part's maxima and returns its energy.
-  Real measure(int p, PartMeasure& m) const;
+  // Measures particle p into its batch's maxima and returns its energy. Inlined, so that the
+  // maxima stay in registers.
+  [[gnu::always_inline]] inline Real measure(int p, BatchMaxima& m) const;
   void measureParticles();  // the speeds and energy of the current state
   void collectMeasures();   // after each particle pass
   void countSleepers();     // after each step's particle pass, with auto-sleep

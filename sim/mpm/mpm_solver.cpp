@@ -551,24 +551,14 @@ void MpmSolver<D, T>::trialDeformation(int p, T dt) {
 template <int D, class T>
 template <class Transfer>
 void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
-  if constexpr (D == 2) {
-    for (const int p : ps) {
-      M rotation;
-      const T J_P_before = particles_.J_P[p];
-      particles_.J_P[p] = plasticReturnMappingJ(material_, particles_.F_E[p], J_P_before,
-                                                rotation);  // eqs. 11-12
-      // Hardening depends on J_P alone, which stays as it is inside the elastic range: no exp
-      // there.
-      if (particles_.J_P[p] != J_P_before)
-        particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
-      particles_.tau[p] =
-          fixedCorotatedKirchhoffUpper<D, T>(particles_.F_E[p], rotation, particles_.lame[p]);
-    }
-  } else {  // the Lamé parameters and tau as well; the rotations are not kept
+  // Eqs. 11-12, the Lamé parameters and tau as well; the rotations are not kept.
+  if constexpr (D == 2)
+    plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(),
+                             particles_.lame.data(), particles_.tau.data(), isa);
+  else
     plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(), nullptr,
                              particles_.V_E.data(), particles_.lame.data(), particles_.tau.data(),
                              isa);
-  }
   // The damper's stress from this step's velocity gradient, which C holds in every transfer.
   if (material_.viscosity > 0)
     for (const int p : ps) addDamperStress(p, 1);

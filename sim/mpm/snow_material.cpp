@@ -308,6 +308,10 @@ SNOWSIM_LANES_INLINE Lanes<T> sqrtLanes(Lanes<T> a) {
   return a;
 }
 template <class T>
+SNOWSIM_LANES_INLINE Lanes<T> clampLanes(Lanes<T> a, T lo, T hi) {  // std::clamp's comparisons
+  return a < lo ? Lanes<T>{} + lo : hi < a ? Lanes<T>{} + hi : a;
+}
+template <class T>
 SNOWSIM_LANES_INLINE Lanes<T> absLanes(Lanes<T> a) {
   return a < 0 ? -a : a;
 }
@@ -591,8 +595,7 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
   Lanes<T> sigma[3];
   svdLanes(F, U, sigma, V);
   const Lanes<T> J_trial = sigma[0] * sigma[1] * sigma[2];
-  for (int a = 0; a < 3; ++a)
-    sigma[a] = sigma[a] < lo ? Lanes<T>{} + lo : hi < sigma[a] ? Lanes<T>{} + hi : sigma[a];
+  for (int a = 0; a < 3; ++a) sigma[a] = clampLanes<T>(sigma[a], lo, hi);
   const Lanes<T> J_clamped = sigma[0] * sigma[1] * sigma[2];
   Mat3Lanes<T> clamped_U, V_transposed;
   for (int i = 0; i < 3; ++i)
@@ -682,8 +685,123 @@ SNOWSIM_TARGET_AVX512 void returnMappingAvx512(const SnowMaterial& m, std::span<
   mapInLanes(m, ps, a);
 }
 
+// The 2D return mapping of ps (at most `lanes`) in lanes: the scalar plasticReturnMappingJ's
+// closed form and fixedCorotatedKirchhoffUpper, their operations in the same order, so that each
+// lane rounds as the scalar code does; the cases the scalar code branches on (r = 0, rad = 0,
+// singular values within their bounds) are selected per lane.
+template <class T>
+SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
+                                      LameOf<T>* lame, Symmetric<2, T>* tau,
+                                      const SnowMaterial& m) {
+  const int n = int(ps.size());
+  static constexpr T identity[4] = {1, 0, 0, 1};
+  const T* from[lanes];
+  for (int l = 0; l < lanes; ++l) from[l] = l < n ? F_E[ps[l]].data() : identity;
+  Lanes<T> f[2][2];
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const int e = i + 2 * j;  // column-major
+      f[i][j] = Lanes<T>{from[0][e], from[1][e], from[2][e], from[3][e],
+                         from[4][e], from[5][e], from[6][e], from[7][e]};
+    }
+  const Lanes<T> x = f[0][0] + f[1][1], y = f[1][0] - f[0][1];
+  const Lanes<T> e = T(0.5) * (f[0][0] - f[1][1]), g = T(0.5) * (f[0][1] + f[1][0]);
+  const Lanes<T> r = sqrtLanes<T>(x * x + y * y), rad = sqrtLanes<T>(e * e + g * g);
+  const Lanes<T> s0 = T(0.5) * r + rad, s1 = T(0.5) * r - rad;
+  const T lo = T(1 - m.theta_c), hi = T(1 + m.theta_s);
+  const Lanes<T> c0 = clampLanes<T>(s0, lo, hi), c1 = clampLanes<T>(s1, lo, hi);  // eq. 11
+  const Lanes<T> one = Lanes<T>{} + 1;
+  const LaneMask<T> turned = r > 0, stretched = rad > 0;
+  const Lanes<T> cosine = turned ? x / (turned ? r : one) : one;
+  const Lanes<T> sine = turned ? y / (turned ? r : one) : Lanes<T>{};
+  const Lanes<T> rotation[2][2] = {{cosine, -sine}, {sine, cosine}};
+  const LaneMask<T> within = (c0 == s0) & (c1 == s1);
+  const Lanes<T> mean = T(0.5) * (c0 + c1);
+  const Lanes<T> k = T(0.5) * (c0 - c1) / (stretched ? rad : one);
+  Lanes<T> clamped[2][2];
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) clamped[i][j] = mean * rotation[i][j];
+  clamped[0][0] = stretched ? clamped[0][0] + k * e : clamped[0][0];
+  clamped[1][1] = stretched ? clamped[1][1] - k * e : clamped[1][1];
+  clamped[0][1] = stretched ? clamped[0][1] + k * g : clamped[0][1];
+  clamped[1][0] = stretched ? clamped[1][0] + k * g : clamped[1][0];
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) f[i][j] = within ? f[i][j] : clamped[i][j];
+  // det F = J_E J_P is unchanged by the return mapping: J_P' = J_P J_trial / J_clamped.
+  Lanes<T> J_P_before{}, mu{}, lambda{};
+  for (int l = 0; l < n; ++l) J_P_before[l] = J_P[ps[l]];
+  const Lanes<T> J_P_after = J_P_before * (s0 * s1) / (c0 * c1);
+  for (int l = 0; l < n; ++l) {
+    const int p = ps[l];
+    if (!within[l]) {
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) F_E[p](i, j) = f[i][j][l];
+      J_P[p] = J_P_after[l];
+      // Hardening depends on J_P alone: no exp while it stays as it is.
+      if (J_P[p] != J_P_before[l]) lame[p] = hardenedLame<T>(m, J_P[p]);
+    }
+    mu[l] = lame[p].mu;
+    lambda[l] = lame[p].lambda;
+  }
+  const Lanes<T> J = f[0][0] * f[1][1] - f[1][0] * f[0][1];
+  const Lanes<T> pressure = lambda * (J - 1) * J;
+  Lanes<T> upper[Symmetric<2, T>::entries];
+  for (int i = 0, c = 0; i < 2; ++i)
+    for (int j = i; j < 2; ++j, ++c) {
+      const Lanes<T> sum =
+          Lanes<T>{} + (f[i][0] - rotation[i][0]) * f[j][0] + (f[i][1] - rotation[i][1]) * f[j][1];
+      upper[c] = T(2) * mu * sum + (i == j ? pressure : Lanes<T>{});
+    }
+  for (int l = 0; l < n; ++l)
+    for (int c = 0; c < Symmetric<2, T>::entries; ++c) tau[ps[l]].upper[c] = upper[c][l];
+}
+
+template <class T>
+struct MappingArrays2 {
+  Mat<2, T>* F_E;
+  T* J_P;
+  LameOf<T>* lame;
+  Symmetric<2, T>* tau;
+};
+template <class T>
+SNOWSIM_LANES_INLINE void mapAllInLanes2(const SnowMaterial& m, std::span<const int> ps,
+                                         const MappingArrays2<T>& a) {
+  for (size_t first = 0; first < ps.size(); first += lanes)
+    mapInLanes2(ps.subspan(first, std::min<size_t>(lanes, ps.size() - first)), a.F_E, a.J_P, a.lame,
+                a.tau, m);
+}
+template <class T>
+void returnMapping2Baseline(const SnowMaterial& m, std::span<const int> ps,
+                            const MappingArrays2<T>& a) {
+  mapAllInLanes2(m, ps, a);
+}
+template <class T>
+SNOWSIM_TARGET_AVX2 void returnMapping2Avx2(const SnowMaterial& m, std::span<const int> ps,
+                                            const MappingArrays2<T>& a) {
+  mapAllInLanes2(m, ps, a);
+}
+template <class T>
+SNOWSIM_TARGET_AVX512 void returnMapping2Avx512(const SnowMaterial& m, std::span<const int> ps,
+                                                const MappingArrays2<T>& a) {
+  mapAllInLanes2(m, ps, a);
+}
+
 #undef SNOWSIM_LANES_INLINE
 }  // namespace
+
+template <class T>
+void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
+                           LameOf<T>* lame, Symmetric<2, T>* tau, VectorIsa isa) {
+  const MappingArrays2<T> arrays{F_E, J_P, lame, tau};
+  switch (isa) {
+    case VectorIsa::avx512:
+      return returnMapping2Avx512(m, ps, arrays);
+    case VectorIsa::avx2:
+      return returnMapping2Avx2(m, ps, arrays);
+    case VectorIsa::baseline:
+      return returnMapping2Baseline(m, ps, arrays);
+  }
+}
 
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
@@ -734,7 +852,9 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
   template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&, Mat<3, T>&); \
   template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*,    \
                                          T*, Mat<3, T>*, Mat<3, T>*, LameOf<T>*, Symmetric<3, T>*, \
-                                         VectorIsa);
+                                         VectorIsa);                                               \
+  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<2, T>*,    \
+                                         T*, LameOf<T>*, Symmetric<2, T>*, VectorIsa);
 SNOWSIM_SNOW_MATERIAL(double)
 SNOWSIM_SNOW_MATERIAL(float)
 #undef SNOWSIM_SNOW_MATERIAL

@@ -146,6 +146,13 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3
                            Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame, Symmetric<3, T>* tau,
                            VectorIsa isa);
 
+// The 2D one for particles ps, the rotations not kept: each particle's F_E and J_P as the call
+// above leaves them, its Lamé parameters hardened anew where J_P changed and its Kirchhoff stress
+// in tau, a particle per vector lane; bit for bit the scalar closed form on every build.
+template <class T>
+void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
+                           LameOf<T>* lame, Symmetric<2, T>* tau, VectorIsa isa);
+
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 template <class T>
 inline T pWaveSpeed(const LameOf<T>& lame, T rho) {

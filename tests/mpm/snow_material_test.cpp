@@ -294,6 +294,74 @@ TEST(SnowMaterial, ReturnMappingInLanesMatchesOneAtATime) {
   expectBatchesMatchOneAtATime<float>();
 }
 
+// The 2D return mapping runs particles eight at a time in vector lanes, selecting per lane what
+// the scalar closed form branches on (no rotation to speak of, a scaled rotation, singular values
+// within their bounds): on every build and in any batch, each particle's F_E, J_P, Lamé
+// parameters and stress must be the scalar code's bit for bit, that stress being
+// fixedCorotatedKirchhoffUpper of the rotation the scalar call returns.
+template <class T>
+void expect2dBatchesMatchTheScalarMapping() {
+  const SnowMaterial m;
+  std::mt19937 random(4);
+  std::normal_distribution<double> noise(0, 1);
+  std::uniform_real_distribution<double> near_bounds(1 - m.theta_c - 0.01, 1 + m.theta_s + 0.01);
+  auto rotation = [&] { return Mat<2>(Eigen::Rotation2Dd(3 * noise(random))); };
+  std::vector<Mat<2>> cases = {
+      Mat<2>::Identity(), Mat<2>::Zero(),    (Mat<2>() << 0.5, 0.2, 0.2, -0.5).finished(),  // r = 0
+      1.2 * rotation(),   0.99 * rotation(), Vec<2>(1, -0.5).asDiagonal()};
+  for (int k = 0; k < 300; ++k) {
+    const Real spread = k % 3 == 0 ? 0.3 : 0.004;
+    cases.push_back(rotation() * (Mat<2>::Identity() + spread * Mat<2>::Random()));
+    cases.push_back(rotation() * Vec<2>(near_bounds(random), near_bounds(random)).asDiagonal() *
+                    rotation());
+  }
+  std::vector<Mat<2, T>> F;
+  for (const Mat<2>& c : cases) F.push_back(c.cast<T>());
+  const int n = int(F.size());
+  std::vector<Mat<2, T>> F_alone = F;
+  std::vector<T> J_alone(n, T(0.8));
+  std::vector<LameOf<T>> lame_alone(n);
+  std::vector<Symmetric<2, T>> tau_alone(n);
+  int elastic = 0;
+  for (int p = 0; p < n; ++p) {
+    Mat<2, T> R;
+    J_alone[p] = plasticReturnMappingJ<T>(m, F_alone[p], J_alone[p], R);
+    elastic += J_alone[p] == T(0.8);
+    lame_alone[p] = hardenedLame<T>(m, J_alone[p]);
+    tau_alone[p] = fixedCorotatedKirchhoffUpper<2, T>(F_alone[p], R, lame_alone[p]);
+  }
+  EXPECT_GT(elastic, 100) << "both paths exercised";
+  EXPECT_LT(elastic, n - 100) << "both paths exercised";
+  const VectorIsa best = vectorIsa();
+  for (const VectorIsa isa : {VectorIsa::baseline, VectorIsa::avx2, VectorIsa::avx512}) {
+    if (isa > best) continue;
+    std::vector<Mat<2, T>> F_E = F;
+    std::vector<T> J_P(n, T(0.8));
+    std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
+    std::vector<Symmetric<2, T>> tau(n);
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), std::mt19937(int(isa)));
+    constexpr int sizes[] = {1, 5, 8, 13, 64, 3};
+    for (int first = 0, k = 0; first < n; first += sizes[k], k = (k + 1) % std::size(sizes))
+      plasticReturnMappingJ<T>(
+          m, std::span<const int>(order.data() + first, std::min(sizes[k], n - first)), F_E.data(),
+          J_P.data(), lame.data(), tau.data(), isa);
+    for (int p = 0; p < n; ++p) {
+      EXPECT_EQ(F_E[p], F_alone[p]) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(J_P[p], J_alone[p]) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(lame[p].mu, lame_alone[p].mu) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(lame[p].lambda, lame_alone[p].lambda) << "case " << p << ", build " << int(isa);
+      EXPECT_EQ(tau[p].upper, tau_alone[p].upper) << "case " << p << ", build " << int(isa);
+    }
+  }
+}
+
+TEST(SnowMaterial, TwoDimensionalReturnMappingInLanesMatchesTheScalarOne) {
+  expect2dBatchesMatchTheScalarMapping<double>();
+  expect2dBatchesMatchTheScalarMapping<float>();
+}
+
 // Degenerate F (rank one, rank two, zero) takes the lanes' SVD path with its special cases: the
 // result must still be a rotation R_E, an F_E whose singular values lie within the bounds, and a
 // finite J_P, in either precision, whatever the batch.

@@ -1,5 +1,6 @@
 // snowsim render DIR: renders saved PLY frames again, e.g. with another colour or size.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -30,7 +31,12 @@ struct RunSummary {
   double fps = 30;
   std::string name = "frames";
   int dimension = 3;  // unknown without run.json: frame the snow in case
+  // How the run drew its frames, or would have: the image size, the 3D camera as placed, the
+  // colouring (none recorded: white) and its range (none recorded: the renderer's default).
+  std::optional<std::array<int, 2>> image;
   std::optional<Camera> camera;
+  std::optional<ColorBy> colour_by;
+  std::optional<ColourRange> colour_range;
   std::vector<SnapshotCollider> colliders;  // at time 0
   // colliders.json: the times of its frames and the colliders at each (empty: none written).
   std::vector<double> collider_times;
@@ -74,10 +80,25 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
   run.fps = summary.value("fps", run.fps);
   run.name = summary.value("scene", run.name);
   run.dimension = summary.value("dimension", run.dimension);
+  const std::string file = (dir / "run.json").string();
   try {
+    if (summary.contains("image")) run.image = summary["image"].get<std::array<int, 2>>();
     if (summary.contains("camera")) run.camera = cameraFromJson(summary["camera"]);
   } catch (const nlohmann::json::exception& e) {
-    throw InputError((dir / "run.json").string() + ": camera: " + e.what());
+    throw InputError(file + ": image or camera: " + e.what());
+  }
+  if (summary.contains("color")) {
+    const nlohmann::json& color = summary["color"];
+    if (!color.is_object() || !color.contains("by") || !color["by"].is_string())
+      throw InputError(file + ": color: needs \"by\", the quantity the frames are coloured by");
+    run.colour_by = parseColorBy(color["by"].get<std::string>(), file + ": color.by");
+    if (color.contains("range")) {
+      const nlohmann::json& range = color["range"];
+      if (!range.is_array() || range.size() != 2 || !range[0].is_number() ||
+          !range[1].is_number() || !(range[0].get<double>() < range[1].get<double>()))
+        throw InputError(file + ": color.range: must be [low, high] with low < high");
+      run.colour_range = ColourRange{range[0].get<double>(), range[1].get<double>()};
+    }
   }
   if (summary.contains("colliders"))
     run.colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
@@ -108,13 +129,20 @@ void scanFrames(const std::vector<std::string>& files, ColorBy by, Bounds& bound
 void renderFrames(const RenderCommandOptions& options) {
   const std::vector<std::string> files = plyFramesIn(options.frames);
   const RunSummary run = readRunSummary(options.frames);
-  // Every setting is checked before anything is written.
-  RenderSettings settings = options.render.settings(RenderSettings{});
+  // Every setting is checked before anything is written. What the command line does not give
+  // comes from how the run drew its frames.
+  RenderSettings run_drawing;
+  if (run.image) run_drawing.width = (*run.image)[0], run_drawing.height = (*run.image)[1];
+  if (run.colour_by) run_drawing.color_by = *run.colour_by;
+  RenderSettings settings = options.render.settings(run_drawing);
+  const bool runs_colouring = run.colour_by && settings.color_by == *run.colour_by;
+  if (runs_colouring && !options.render.givesColourRange()) settings.color_range = run.colour_range;
   if (settings.color_by == ColorBy::Plastic && readPly(files.front()).plastic_j.empty())
     throw InputError("--color-by plastic: " + files.front() +
                      " has no plastic compression (J_P); only MPM runs write it");
-  // The run's camera unless the command line places or frames one; a framing camera and the
-  // colour range then come from every frame, so that all are drawn alike.
+  // The run's camera unless the command line places or frames one; a framing camera, and the
+  // colour range of a quantity the run did not colour by, then come from every frame, so that
+  // all are drawn alike.
   const bool reuse_camera =
       run.camera && !options.render.placesCamera() && !options.render.choosesPreset();
   if (reuse_camera) {
@@ -122,7 +150,8 @@ void renderFrames(const RenderCommandOptions& options) {
     settings.camera = *run.camera;
     if (options.render.givesFov()) settings.camera.fov_degrees = fov;
   }
-  const bool scan_range = !options.render.givesColourRange() && settings.color_by != ColorBy::White;
+  const bool scan_range =
+      !options.render.givesColourRange() && !runs_colouring && settings.color_by != ColorBy::White;
   const bool frame_snow = run.dimension == 3 && !settings.camera.custom;
   if (scan_range || frame_snow) {
     Bounds bounds;
@@ -156,9 +185,11 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("-o,--out", options->out, "Output directory (default: the frames directory)");
   options->render.addTo(*cmd);
   cmd->footer(
-      "The frames are drawn with the run's camera (run.json) unless --camera-eye/--camera-target "
-      "or --camera-preset say otherwise, and with a colour range over the extremes of all the "
-      "frames unless --color-range gives one.\nExit codes: 0 done, 2 bad input.");
+      "The frames are drawn as the run drew them, or would have (run.json: the image size, the "
+      "camera and the colouring), unless --width/--height, --camera-eye/--camera-target, "
+      "--camera-preset or --color-by/--color-range say otherwise; a quantity the run did not "
+      "colour by takes a range over the extremes of all the frames.\nExit codes: 0 done, 2 bad "
+      "input.");
   cmd->callback([options] { renderFrames(*options); });
 }
 

@@ -183,11 +183,15 @@ void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
   if (!measured.empty()) std::fprintf(stderr, "%s\n", measured.c_str());
 }
 
-// How the frames were drawn, for `snowsim render` to reuse or change: the 3D camera as placed
-// and the colour range, fixed for the whole run.
+// How the frames are drawn, for `snowsim render` to reuse or change, whether or not this run
+// draws them: the image size, the 3D camera as placed and the colouring, fixed for the whole run.
 void recordRendering(nlohmann::json& summary, const RenderSettings& render, const Scene& scene) {
+  summary["image"] = {render.width, render.height};
   if (scene.dimension == 3) summary["camera"] = cameraJson(placedCamera(render, scene.extent()));
-  if (render.color_by == ColorBy::White) return;
+  // White is the default; plastic needs an MPM run's J_P.
+  if (render.color_by == ColorBy::White ||
+      (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm))
+    return;
   summary["color"] = {{"by", colorByName(render.color_by)}};
   if (render.color_range)
     summary["color"]["range"] = {render.color_range->low, render.color_range->high};
@@ -337,7 +341,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     state["earlier_sessions"] = SessionTimes{earlier.sessions + 1, earlier.wall + wallTime(),
                                              stageTimes(*simulation, clock, earlier.stages)}
                                     .toJson();
-    if (options.render.png || options.render.mp4) recordRendering(state, render, scene);
+    recordRendering(state, render, scene);
     if (writes)
       saveCheckpoint(options.out, scene, *simulation, state);
     else
@@ -423,7 +427,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
         {"asleep_share_of_particle_steps", double(sleep.asleep_steps) / sleep.particle_steps},
         {"asleep_share_at_end", double(sleep.asleep_now) / sleep.particles}};
   if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
-  if (options.render.png || options.render.mp4) recordRendering(summary, render, scene);
+  recordRendering(summary, render, scene);
   if (options.render.mp4) summary["video"] = video_name;
   // What reproduces the run: the scene as run, how it was asked for, by which build.
   summary["resolved_scene"] = sceneToJson(scene);

@@ -588,6 +588,44 @@ TEST(Cli, RenderReusesTheCameraOfTheRun) {
       << r.output;
 }
 
+// A run that draws no frames still records how it would have drawn them (run.json: the image
+// size, the camera, the colouring); `snowsim render` of its PLY frames then draws what the same
+// run drawing PNGs drew, byte for byte, and the command line still changes any of it.
+TEST(Cli, RenderDrawsWhatTheRunWouldHaveDrawn) {
+  const fs::path drawn = freshDir("drawn"), later = freshDir("drawn_later");
+  const std::string run = "run " + scene("study_smash_3d") +
+                          " --set time.duration=0.02 --set time.fps=50 --no-mp4 --width 160 "
+                          "--height 120 --color-by plastic --camera-eye 0.1 0.3 0.6 "
+                          "--camera-target 0.3 0.1 0.1 -o ";
+  Result r = runSnowsim(run + drawn.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  r = runSnowsim(run + later.string() + " --no-png");
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_FALSE(fs::exists(later / "frame_00001.png"));
+  const auto summary = nlohmann::json::parse(std::ifstream(later / "run.json"));
+  EXPECT_EQ(summary["image"], nlohmann::json({160, 120}));
+  EXPECT_EQ(summary["color"]["by"], "plastic");
+  EXPECT_EQ(summary["camera"]["eye"], nlohmann::json({0.1, 0.3, 0.6}));
+  r = runSnowsim("render " + later.string() + " --no-mp4");
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* frame : {"frame_00000.png", "frame_00001.png"})
+    EXPECT_EQ(fileBytes(later / frame), fileBytes(drawn / frame)) << frame;
+  r = runSnowsim("render " + later.string() + " -o " + (later / "white").string() +
+                 " --no-mp4 --color-by white");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(fileBytes(later / "white" / "frame_00001.png"), fileBytes(drawn / "frame_00001.png"));
+  EXPECT_EQ(snowsim::readPng((later / "white" / "frame_00001.png").string()).width, 160);
+
+  // A run.json whose colouring cannot be read is refused before anything is written.
+  auto broken = summary;
+  broken["color"]["by"] = "temperature";
+  std::ofstream(later / "run.json") << broken.dump();
+  r = runSnowsim("render " + later.string() + " -o " + (later / "bad").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("color.by"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(later / "bad"));
+}
+
 // A 3D frame (deferred passes, occlusion, grid lines on the ground) is the same image in every
 // process. Each render is a process of its own: what llvmpipe leaves in an output a shader does
 // not write depends on the addresses a process gets. With llvmpipe rasterising on the calling

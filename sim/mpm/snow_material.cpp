@@ -714,7 +714,8 @@ SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T
   const LaneMask<T> turned = r > 0, stretched = rad > 0;
   const Lanes<T> cosine = turned ? x / (turned ? r : one) : one;
   const Lanes<T> sine = turned ? y / (turned ? r : one) : Lanes<T>{};
-  const Lanes<T> rotation[2][2] = {{cosine, -sine}, {sine, cosine}};
+  // The identity where r = 0, +0 off the diagonal as the scalar code sets it.
+  const Lanes<T> rotation[2][2] = {{cosine, turned ? -sine : Lanes<T>{}}, {sine, cosine}};
   const LaneMask<T> within = (c0 == s0) & (c1 == s1);
   const Lanes<T> mean = T(0.5) * (c0 + c1);
   const Lanes<T> k = T(0.5) * (c0 - c1) / (stretched ? rad : one);
@@ -737,9 +738,9 @@ SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T
       for (int j = 0; j < 2; ++j)
         for (int i = 0; i < 2; ++i) F_E[p](i, j) = f[i][j][l];
       J_P[p] = J_P_after[l];
-      // Hardening depends on J_P alone: no exp while it stays as it is.
-      if (J_P[p] != J_P_before[l]) lame[p] = hardenedLame<T>(m, J_P[p]);
     }
+    // Hardening depends on J_P alone: no exp while it stays as it is (a NaN never does).
+    if (J_P[p] != J_P_before[l]) lame[p] = hardenedLame<T>(m, J_P[p]);
     mu[l] = lame[p].mu;
     lambda[l] = lame[p].lambda;
   }

@@ -34,6 +34,7 @@ struct RunSummary {
   // How the run drew its frames, or would have: the image size, the 3D camera as placed, the
   // colouring (none recorded: white) and its range (none recorded: the renderer's default).
   std::optional<std::array<int, 2>> image;
+  nlohmann::json drawing;  // drawingJson's; null: the defaults
   std::optional<Camera> camera;
   std::optional<ColorBy> colour_by;
   std::optional<ColourRange> colour_range;
@@ -83,10 +84,19 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
   const std::string file = (dir / "run.json").string();
   try {
     if (summary.contains("image")) run.image = summary["image"].get<std::array<int, 2>>();
+    if (summary.contains("drawing")) {
+      run.drawing = summary["drawing"];
+      RenderSettings check;
+      applyDrawing(run.drawing, file + ": drawing", check);
+    }
     if (summary.contains("camera")) run.camera = cameraFromJson(summary["camera"]);
   } catch (const nlohmann::json::exception& e) {
-    throw InputError(file + ": image or camera: " + e.what());
+    throw InputError(file + ": image, drawing or camera: " + e.what());
   }
+  if (run.image)
+    for (const int side : *run.image)
+      if (side < 16 || side > 8192)
+        throw InputError(file + ": image: each side must be from 16 to 8192 pixels");
   if (summary.contains("color")) {
     const nlohmann::json& color = summary["color"];
     if (!color.is_object() || !color.contains("by") || !color["by"].is_string())
@@ -133,6 +143,7 @@ void renderFrames(const RenderCommandOptions& options) {
   // comes from how the run drew its frames.
   RenderSettings run_drawing;
   if (run.image) run_drawing.width = (*run.image)[0], run_drawing.height = (*run.image)[1];
+  if (!run.drawing.is_null()) applyDrawing(run.drawing, "run.json: drawing", run_drawing);
   if (run.colour_by) run_drawing.color_by = *run.colour_by;
   RenderSettings settings = options.render.settings(run_drawing);
   const bool runs_colouring = run.colour_by && settings.color_by == *run.colour_by;
@@ -160,7 +171,8 @@ void renderFrames(const RenderCommandOptions& options) {
     if (frame_snow) settings.camera.frame = bounds;
     if (scan_range && range.high > range.low) settings.color_range = range;
   }
-  const VideoSettings video = options.render.videoSettings(run.fps);
+  const VideoSettings video =
+      options.render.videoSettings(run.fps, settings.width, settings.height);
   const std::string out = options.out.empty() ? options.frames : options.out;
   prepareOutputDirectory(out);
   RenderSink sink(settings, options.render.png ? out : "",
@@ -186,10 +198,9 @@ void addRenderCommand(CLI::App& app) {
   options->render.addTo(*cmd);
   cmd->footer(
       "The frames are drawn as the run drew them, or would have (run.json: the image size, the "
-      "camera and the colouring), unless --width/--height, --camera-eye/--camera-target, "
-      "--camera-preset or --color-by/--color-range say otherwise; a quantity the run did not "
-      "colour by takes a range over the extremes of all the frames.\nExit codes: 0 done, 2 bad "
-      "input.");
+      "look and what is drawn, the camera and the colouring), unless the options above say "
+      "otherwise; a quantity the run did not colour by takes a range over the extremes of all "
+      "the frames.\nExit codes: 0 done, 2 bad input.");
   cmd->callback([options] { renderFrames(*options); });
 }
 

@@ -124,10 +124,33 @@ Camera cameraFromJson(const nlohmann::json& json) {
   return camera;
 }
 
-VideoSettings RenderOptions::videoSettings(double scene_fps) const {
+nlohmann::json drawingJson(const RenderSettings& settings) {
+  nlohmann::json j = {{"look", settings.look == Look::Figure ? "figure" : "studio"},
+                      {"sphere_radius", settings.sphere_radius},
+                      {"grid", settings.show_grid},
+                      {"density_cells", settings.density_cells},
+                      {"shadows", settings.shadows},
+                      {"occlusion", settings.occlusion}};
+  if (settings.background) j["background"] = *settings.background;
+  return j;
+}
+
+void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSettings& settings) {
+  settings.look = parseLook(json.at("look").get<std::string>(), where + ": look");
+  settings.sphere_radius = json.at("sphere_radius").get<double>();
+  settings.show_grid = json.at("grid").get<bool>();
+  settings.density_cells = json.at("density_cells").get<bool>();
+  settings.shadows = json.at("shadows").get<bool>();
+  settings.occlusion = json.at("occlusion").get<bool>();
+  if (json.contains("background"))
+    settings.background = json.at("background").get<std::array<double, 3>>();
+}
+
+VideoSettings RenderOptions::videoSettings(double scene_fps, int image_width,
+                                           int image_height) const {
   VideoSettings v = video;
   v.fps = video_fps != 0 ? video_fps : scene_fps;
-  if (mp4) validate(v, width, height);
+  if (mp4) validate(v, image_width, image_height);
   return v;
 }
 

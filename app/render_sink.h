@@ -49,8 +49,9 @@ struct RenderOptions {
   // The scene's settings with the options given on the command line applied; throws InputError
   // for a bad value.
   RenderSettings settings(RenderSettings scene) const;
-  // The video settings for frames simulated at scene_fps; checked (InputError) when MP4 is on.
-  VideoSettings videoSettings(double scene_fps) const;
+  // The video settings for frames simulated at scene_fps, drawn at width x height (the image
+  // settings' size); checked (InputError) when MP4 is on.
+  VideoSettings videoSettings(double scene_fps, int width, int height) const;
 
  private:
   bool given(const char* name) const;
@@ -60,6 +61,12 @@ struct RenderOptions {
 // A camera as run.json records it (eye, target, up, fov, preset) and back.
 nlohmann::json cameraJson(const Camera& camera);
 Camera cameraFromJson(const nlohmann::json& json);
+// What is drawn beside the snow and how, as run.json records it ("drawing": look, background,
+// sphere radius, grid, density cells, shadows, occlusion), and back onto settings. Reading throws
+// nlohmann's exceptions for a missing or mistyped field and InputError (naming `where`) for a bad
+// value.
+nlohmann::json drawingJson(const RenderSettings& settings);
+void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSettings& settings);
 
 class RenderSink final : public FrameSink {
  public:

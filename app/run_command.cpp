@@ -184,9 +184,11 @@ void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
 }
 
 // How the frames are drawn, for `snowsim render` to reuse or change, whether or not this run
-// draws them: the image size, the 3D camera as placed and the colouring, fixed for the whole run.
+// draws them: the image size, the look and what is drawn, the 3D camera as placed and the
+// colouring, fixed for the whole run.
 void recordRendering(nlohmann::json& summary, const RenderSettings& render, const Scene& scene) {
   summary["image"] = {render.width, render.height};
+  summary["drawing"] = drawingJson(render);
   if (scene.dimension == 3) summary["camera"] = cameraJson(placedCamera(render, scene.extent()));
   // White is the default; plastic needs an MPM run's J_P.
   if (render.color_by == ColorBy::White ||
@@ -261,7 +263,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     throw InputError("--color-by plastic: " + scene.file +
                      " runs the report's method, which has no plastic compression; allowed: "
                      "white, density, speed (or --set solver=mpm)");
-  const VideoSettings video = options.render.videoSettings(scene.fps);
+  const VideoSettings video = options.render.videoSettings(scene.fps, render.width, render.height);
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
@@ -557,7 +559,8 @@ void addRunCommand(CLI::App& app) {
       "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "
       "stage, particle count, dimension, cell size; a collapse of the time step and its cause; "
       "for a semi-implicit run, its linear solves: count, mean and most iterations, "
-      "unconverged; the 3D camera and the colour range the frames were drawn with; to reproduce "
+      "unconverged; how the frames are drawn, also when none are: image size, look, 3D camera, "
+      "colouring and its range; to reproduce "
       "the run: the scene after --set, --quality and --scale, the overrides, the quality, the "
       "snowsim version and commit, the threads).\n"
       "Before the run starts it prints the particles, the grid and the particle-steps of the "

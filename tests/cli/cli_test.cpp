@@ -596,7 +596,7 @@ TEST(Cli, RenderDrawsWhatTheRunWouldHaveDrawn) {
   const std::string run = "run " + scene("study_smash_3d") +
                           " --set time.duration=0.02 --set time.fps=50 --no-mp4 --width 160 "
                           "--height 120 --color-by plastic --camera-eye 0.1 0.3 0.6 "
-                          "--camera-target 0.3 0.1 0.1 -o ";
+                          "--camera-target 0.3 0.1 0.1 --look figure --no-grid -o ";
   Result r = runSnowsim(run + drawn.string());
   ASSERT_EQ(r.code, 0) << r.output;
   r = runSnowsim(run + later.string() + " --no-png");
@@ -606,6 +606,8 @@ TEST(Cli, RenderDrawsWhatTheRunWouldHaveDrawn) {
   EXPECT_EQ(summary["image"], nlohmann::json({160, 120}));
   EXPECT_EQ(summary["color"]["by"], "plastic");
   EXPECT_EQ(summary["camera"]["eye"], nlohmann::json({0.1, 0.3, 0.6}));
+  EXPECT_EQ(summary["drawing"]["look"], "figure");
+  EXPECT_EQ(summary["drawing"]["grid"], false);
   r = runSnowsim("render " + later.string() + " --no-mp4");
   ASSERT_EQ(r.code, 0) << r.output;
   for (const char* frame : {"frame_00000.png", "frame_00001.png"})
@@ -615,6 +617,15 @@ TEST(Cli, RenderDrawsWhatTheRunWouldHaveDrawn) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(fileBytes(later / "white" / "frame_00001.png"), fileBytes(drawn / "frame_00001.png"));
   EXPECT_EQ(snowsim::readPng((later / "white" / "frame_00001.png").string()).width, 160);
+
+  // An MP4 at the run's size is checked before anything is written: yuv420p needs even sides.
+  auto odd = summary;
+  odd["image"] = {161, 120};
+  std::ofstream(later / "run.json") << odd.dump();
+  r = runSnowsim("render " + later.string() + " -o " + (later / "odd").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("even width and height, got 161x120"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(later / "odd"));
 
   // A run.json whose colouring cannot be read is refused before anything is written.
   auto broken = summary;

@@ -121,6 +121,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
                  "allowed: white, density, speed");
   expectRejected("run " + scene("snowball_drop") + " --width 0", "out of range");
   expectRejected("run " + scene("snowball_drop") + " --width 201", "even width and height");
+  expectRejected("run " + scene("snowball_drop") + " --set render.width=201",
+                 "even width and height, got 201x");
   expectRejected("run " + scene("snowball_drop") + " --mp4-codec nonesuch", "--mp4-codec");
   expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");

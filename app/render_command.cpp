@@ -157,9 +157,10 @@ void renderFrames(const RenderCommandOptions& options) {
   const bool reuse_camera =
       run.camera && !options.render.placesCamera() && !options.render.choosesPreset();
   if (reuse_camera) {
-    const double fov = settings.camera.fov_degrees;
+    const Camera given = settings.camera;
     settings.camera = *run.camera;
-    if (options.render.givesFov()) settings.camera.fov_degrees = fov;
+    if (options.render.givesFov()) settings.camera.fov_degrees = given.fov_degrees;
+    if (options.render.givesCameraUp()) settings.camera.up = given.up;
   }
   const bool scan_range =
       !options.render.givesColourRange() && !runs_colouring && settings.color_by != ColorBy::White;

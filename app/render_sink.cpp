@@ -105,6 +105,9 @@ bool RenderOptions::givesColourRange() const {
 bool RenderOptions::givesFov() const {
   return given("--fov");
 }
+bool RenderOptions::givesCameraUp() const {
+  return given("--camera-up");
+}
 
 nlohmann::json cameraJson(const Camera& camera) {
   return {{"eye", camera.eye},

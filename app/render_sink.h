@@ -46,6 +46,7 @@ struct RenderOptions {
   bool choosesPreset() const;
   bool givesColourRange() const;
   bool givesFov() const;
+  bool givesCameraUp() const;
   // The scene's settings with the options given on the command line applied; throws InputError
   // for a bad value.
   RenderSettings settings(RenderSettings scene) const;

@@ -580,6 +580,11 @@ TEST(Cli, RenderReusesTheCameraOfTheRun) {
   r = runSnowsim("render " + out.string() + " -o " + (out / "again").string() + size);
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(fileBytes(out / "again" / "frame_00001.png"), fileBytes(out / "frame_00001.png"));
+  r = runSnowsim("render " + out.string() + " -o " + (out / "tilted").string() +
+                 " --camera-up 1 1 0" + size);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(fileBytes(out / "tilted" / "frame_00001.png"), fileBytes(out / "frame_00001.png"))
+      << "--camera-up turns the run's camera";
   r = runSnowsim("render " + out.string() + " -o " + (out / "top").string() +
                  " --camera-preset top" + size);
   ASSERT_EQ(r.code, 0) << r.output;

@@ -625,6 +625,18 @@ TEST(Cli, RenderDrawsWhatTheRunWouldHaveDrawn) {
   EXPECT_NE(fileBytes(later / "white" / "frame_00001.png"), fileBytes(drawn / "frame_00001.png"));
   EXPECT_EQ(snowsim::readPng((later / "white" / "frame_00001.png").string()).width, 160);
 
+  // With no camera placed, the run frames its snow from its first frame: the camera it records
+  // draws the same images as well.
+  const std::string framed = "run " + scene("study_smash_3d") +
+                             " --set time.duration=0.02 --set time.fps=50 --no-mp4 --width 160 "
+                             "--height 120 --color-by speed -o ";
+  ASSERT_EQ(runSnowsim(framed + (drawn / "framed").string()).code, 0);
+  ASSERT_EQ(runSnowsim(framed + (later / "framed").string() + " --no-png").code, 0);
+  r = runSnowsim("render " + (later / "framed").string() + " --no-mp4");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(fileBytes(later / "framed" / "frame_00001.png"),
+            fileBytes(drawn / "framed" / "frame_00001.png"));
+
   // An MP4 at the run's size is checked before anything is written: yuv420p needs even sides.
   auto odd = summary;
   odd["image"] = {161, 120};

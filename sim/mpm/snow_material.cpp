@@ -1,6 +1,7 @@
 #include "sim/mpm/snow_material.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -355,21 +356,31 @@ SNOWSIM_LANES_INLINE Mat3Lanes<T> transposeProductLanes(const Mat3Lanes<T>& A,
   return out;
 }
 
-// Entry (i, j) of matrix ps[l] of M into lane l; lanes past ps hold the identity. Each lane vector
-// is built from its eight scalars: no branch per entry, and no narrow stores read back wide.
+// Entry (i, j) of matrix ps[l] of M into lane l, 2x2 or 3x3; lanes past ps hold the identity.
+// Each lane vector is built from its eight scalars: no branch per entry, and no narrow stores
+// read back wide.
+template <int D, class T>
+SNOWSIM_LANES_INLINE void loadLanes(const Mat<D, T>* M, std::span<const int> ps,
+                                    Lanes<T> (&out)[D][D]) {
+  static_assert(lanes == 8, "a lane vector is built from eight scalars below");
+  static constexpr std::array<T, D* D> identity = [] {
+    std::array<T, D * D> a{};
+    for (int i = 0; i < D; ++i) a[i * (D + 1)] = 1;
+    return a;
+  }();
+  const T* from[lanes];
+  for (int l = 0; l < lanes; ++l) from[l] = l < int(ps.size()) ? M[ps[l]].data() : identity.data();
+  for (int j = 0; j < D; ++j)
+    for (int i = 0; i < D; ++i) {
+      const int e = i + D * j;  // column-major
+      out[i][j] = Lanes<T>{from[0][e], from[1][e], from[2][e], from[3][e],
+                           from[4][e], from[5][e], from[6][e], from[7][e]};
+    }
+}
 template <class T>
 SNOWSIM_LANES_INLINE Mat3Lanes<T> loadLanes(const Mat<3, T>* M, std::span<const int> ps) {
-  static_assert(lanes == 8, "a lane vector is built from eight scalars below");
-  static constexpr T identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  const T* from[lanes];
-  for (int l = 0; l < lanes; ++l) from[l] = l < int(ps.size()) ? M[ps[l]].data() : identity;
   Mat3Lanes<T> out;
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) {
-      const int e = i + 3 * j;  // column-major
-      out.a[i][j] = Lanes<T>{from[0][e], from[1][e], from[2][e], from[3][e],
-                             from[4][e], from[5][e], from[6][e], from[7][e]};
-    }
+  loadLanes<3, T>(M, ps, out.a);
   return out;
 }
 template <class T>
@@ -694,16 +705,8 @@ SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T
                                       LameOf<T>* lame, Symmetric<2, T>* tau,
                                       const SnowMaterial& m) {
   const int n = int(ps.size());
-  static constexpr T identity[4] = {1, 0, 0, 1};
-  const T* from[lanes];
-  for (int l = 0; l < lanes; ++l) from[l] = l < n ? F_E[ps[l]].data() : identity;
   Lanes<T> f[2][2];
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i) {
-      const int e = i + 2 * j;  // column-major
-      f[i][j] = Lanes<T>{from[0][e], from[1][e], from[2][e], from[3][e],
-                         from[4][e], from[5][e], from[6][e], from[7][e]};
-    }
+  loadLanes<2, T>(F_E, ps, f);
   const Lanes<T> x = f[0][0] + f[1][1], y = f[1][0] - f[0][1];
   const Lanes<T> e = T(0.5) * (f[0][0] - f[1][1]), g = T(0.5) * (f[0][1] + f[1][0]);
   const Lanes<T> r = sqrtLanes<T>(x * x + y * y), rad = sqrtLanes<T>(e * e + g * g);

@@ -22,18 +22,23 @@ struct ClumpsOptions {
 void reportClumps(const ClumpsOptions& options) {
   if (!(options.link > 0)) throw InputError("--link: must be > 0 (particle spacings)");
   if (options.min_size < 1) throw InputError("--min-size: must be at least 1");
-  std::printf(
+  // Printed once every frame has been read, so that a bad frame leaves no partial CSV behind.
+  std::string csv =
       "frame,time_s,particles,clumps,chunks,largest_share,other_chunks_share,clumped_share,"
-      "single_share\n");
+      "single_share\n";
   for (const std::string& file : plyFramesIn(options.frames)) {
     const Snapshot s = readPly(file);
     if (!(s.grid.particle_spacing > 0))
       throw InputError(file + ": records no particle spacing (not written by snowsim run)");
     const ClumpStats c = findClumps(s, options.link * s.grid.particle_spacing, options.min_size);
     const double largest = c.particles > 0 ? double(c.largest) / c.particles : 0.0;
-    std::printf("%d,%.4f,%d,%d,%d,%.4f,%.4f,%.4f,%.4f\n", s.frame, s.time, c.particles, c.clumps,
-                c.chunks, largest, c.clumped_share - largest, c.clumped_share, c.single_share);
+    char line[256];
+    std::snprintf(line, sizeof line, "%d,%.4f,%d,%d,%d,%.4f,%.4f,%.4f,%.4f\n", s.frame, s.time,
+                  c.particles, c.clumps, c.chunks, largest, c.clumped_share - largest,
+                  c.clumped_share, c.single_share);
+    csv += line;
   }
+  std::fputs(csv.c_str(), stdout);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "app/commands.h"
+#include "app/options.h"
 #include "app/render_sink.h"
 #include "render/colour.h"
 #include "render/figure.h"
@@ -28,6 +29,7 @@ struct FigureOptions {
   std::vector<std::string> overrides;
   std::string title;
   RenderOptions render;
+  int threads = 0;  // the solver's threads; 0: the OpenMP default
 };
 
 // Panels of the report's size unless the scene or the command line gives one.
@@ -82,7 +84,7 @@ class SceneStrip {
       throw InputError("--color-by plastic: " + scene.file +
                        " runs the report's method, which has no plastic compression; allowed: "
                        "white, density, speed");
-    simulation_ = makeSimulation(scene);
+    simulation_ = makeSimulation(scene, options.threads);
     fitToScene(settings_, scene, simulation_->snapshot(0));
   }
 
@@ -130,10 +132,10 @@ void sceneFigure(const FigureOptions& options) {
     for (int i = 0; i < 4; ++i) times.push_back(scene.duration * i / 3);
   for (size_t i = 0; i < times.size(); ++i)
     if (times[i] < 0 || times[i] > scene.duration || (i > 0 && times[i] < times[i - 1]))
-      throw InputError("--times: " + std::to_string(times[i]) +
+      throw InputError("--times: " + numberText(times[i]) +
                        " is not allowed; allowed: ascending times from 0 to the scene's "
                        "duration, " +
-                       std::to_string(scene.duration) + " s");
+                       numberText(scene.duration) + " s");
   SceneStrip strip(scene, options, std::nullopt);
   prepareOutputDirectory(options.out);
   std::vector<std::vector<Panel>> panels(1);
@@ -213,6 +215,7 @@ void addFigureCommand(CLI::App& app) {
   cmd->add_option("--title", options->title,
                   "Title above the strip (default: the figure's, or the scene's name)");
   options->render.addImageOptionsTo(*cmd);
+  addThreadsOption(*cmd, options->threads);
   cmd->footer(
       "Writes OUT/NAME.png (NAME: the figure's or the scene's name): the title, each row a "
       "scene, each panel a frame with its time under it, and a colour bar with units when "

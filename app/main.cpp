@@ -1,6 +1,8 @@
 // snowsim: simulates snow and renders it off-screen.
 #include <cstdio>
 #include <exception>
+#include <string>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 
@@ -24,6 +26,21 @@ int main(int argc, char** argv) {
   snowsim::addDiffCommand(app);
   snowsim::addStudyCommand(app);
   snowsim::addClumpsCommand(app);
+  // CLI11 answers a misspelt command with "A subcommand is required"; name it instead.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (const CLI::App* command :
+         std::as_const(app).get_subcommands([](const CLI::App*) { return true; })) {
+      known = known || command->check_name(argv[1]);
+      names += (names.empty() ? "" : ", ") + command->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "snowsim: error: unknown command '%s'; the commands are %s\n", argv[1],
+                   names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -36,7 +36,7 @@ struct RenderOptions {
   bool png = true;
   bool mp4 = true;
   VideoSettings video;
-  double video_fps = 0;  // 0: the scene's frame rate
+  double video_fps = 0;  // when --mp4-fps is given; else the scene's frame rate
 
   // The image options (size, colouring, grid, camera) and the PNG/MP4 outputs' options.
   void addTo(CLI::App& command);

@@ -45,7 +45,7 @@ void validate(const RenderSettings& s) {
                      " is out of range; allowed: 16 to 8192 pixels each way");
   if (s.sphere_radius < 0) throw InputError("sphere radius must not be negative");
   if (!(s.camera.fov_degrees > 0 && s.camera.fov_degrees < 180))
-    throw InputError("camera field of view " + std::to_string(s.camera.fov_degrees) +
+    throw InputError("camera field of view " + numberText(s.camera.fov_degrees) +
                      " is out of range; allowed: (0, 180) degrees");
   if (s.camera.custom && s.camera.eye == s.camera.target)
     throw InputError("camera eye and target must differ");
@@ -56,8 +56,8 @@ void validate(const RenderSettings& s) {
             "background colour (--background, render.background): " + std::to_string(c) +
             " is out of range; allowed: 0 to 1 (red, green, blue)");
   if (s.color_range && !(s.color_range->high > s.color_range->low))
-    throw InputError("colour range [" + std::to_string(s.color_range->low) + ", " +
-                     std::to_string(s.color_range->high) + "] is empty; allowed: low < high");
+    throw InputError("colour range [" + numberText(s.color_range->low) + ", " +
+                     numberText(s.color_range->high) + "] is empty; allowed: low < high");
 }
 
 namespace {

@@ -48,7 +48,7 @@ const AVCodec* chooseEncoder(const std::string& wanted) {
 
 void validate(const VideoSettings& s, int width, int height) {
   if (!(s.fps > 0 && s.fps <= 1000))
-    throw InputError("--mp4-fps: " + std::to_string(s.fps) + " is outside the allowed (0, 1000]");
+    throw InputError("--mp4-fps: " + numberText(s.fps) + " is outside the allowed (0, 1000]");
   if (s.crf < 0 || s.crf > 51)
     throw InputError("--mp4-crf: " + std::to_string(s.crf) + " is outside the allowed 0..51");
   if (width % 2 || height % 2)

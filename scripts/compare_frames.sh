@@ -2,8 +2,16 @@
 # Runs every shipped scene, and variants of the solvers' settings, with two snowsim binaries and
 # compares their PLY frames byte for byte: the check that a change of code changed no result.
 # Usage: scripts/compare_frames.sh OLD_SNOWSIM NEW_SNOWSIM [WORK_DIR]
-# Prints one line per case and exits 1 if any frame differs.
+# Prints one line per case and exits 1 if any frame differs, 2 on bad arguments.
 set -uo pipefail
+usage() {
+  echo "usage: scripts/compare_frames.sh OLD_SNOWSIM NEW_SNOWSIM [WORK_DIR]" >&2
+  exit 2
+}
+[ $# -ge 2 ] && [ $# -le 3 ] || usage
+for binary in "$1" "$2"; do
+  [ -x "$binary" ] || { echo "compare_frames.sh: $binary is not an executable" >&2; usage; }
+done
 cd "$(dirname "$0")/.."
 old=$(realpath "$1")
 new=$(realpath "$2")

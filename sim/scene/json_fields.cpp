@@ -24,7 +24,7 @@ int editDistance(const std::string& a, const std::string& b) {
 
 Json readJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the scene file");
+  if (!in) throw InputError(path + ": cannot open the file (missing or unreadable)");
   std::stringstream buffer;
   buffer << in.rdbuf();
   return parseJsonText(buffer.str(), path);
@@ -75,12 +75,6 @@ FieldError::FieldError(const std::string& file, const std::string& shown_path,
       problem(shown_path + ": " + message) {}
 
 namespace {
-
-std::string formatNumber(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
 
 std::string typeName(const Json& j) {
   if (j.is_boolean()) return "a boolean";
@@ -147,9 +141,9 @@ double JsonFields::number(const std::string& key, std::optional<double> fallback
   const bool below = lo_open ? !(x > lo) : !(x >= lo);
   const bool above = hi_open ? !(x < hi) : !(x <= hi);
   if (!std::isfinite(x) || below || above) {
-    std::string range = std::string(lo_open ? "(" : "[") + formatNumber(lo) + ", " +
-                        formatNumber(hi) + (hi_open ? ")" : "]");
-    fail(key, formatNumber(x) + " is out of range; allowed: " + range);
+    std::string range = std::string(lo_open ? "(" : "[") + numberText(lo) + ", " + numberText(hi) +
+                        (hi_open ? ")" : "]");
+    fail(key, numberText(x) + " is out of range; allowed: " + range);
   }
   return x;
 }

@@ -126,6 +126,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-codec nonesuch", "--mp4-codec");
   expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
+  expectRejected("run " + scene("snowball_drop") + " --mp4-fps 0", "--mp4-fps: 0 is outside");
+  expectRejected("figure " + scene("snowball_drop") + " --times 0.2,5", "--times: 5 is not");
   expectRejected("run " + scene("snowball_drop") + " --look noir", "allowed: studio, figure");
   expectRejected("run " + scene("snowball_drop") + " --background 1,2,0", "--background");
   expectRejected("run " + scene("snowball_drop") + " --set render.look=noir", "render.look");
@@ -683,6 +685,48 @@ TEST(Cli, UnwritableOutputDirectoryIsBadInput) {
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o /proc/snowsim_out");
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("/proc/snowsim_out"), std::string::npos) << r.output;
+}
+
+TEST(Cli, AMisspeltCommandIsNamed) {
+  const Result r = runSnowsim("rnu " + scene("snowball_drop"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("unknown command 'rnu'; the commands are run, resume"), std::string::npos)
+      << r.output;
+}
+
+// A study stops before its CSV is begun when a scene of its preset cannot be read or the CSV
+// cannot be written.
+TEST(Cli, AStudyOfMissingScenesOrToAnUnwritablePathWritesNothing) {
+  const fs::path dir = freshDir("study_bad");
+  fs::create_directories(dir);
+  Result r = runSnowsim("study --quick --scenes " + (dir / "none").string() + " -o " +
+                        (dir / "s.csv").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("cannot open the file"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "s.csv"));
+  r = runSnowsim("study --quick --scenes " + std::string(SNOWSIM_SOURCE_DIR) +
+                 "/scenes -o /proc/snowsim_out/s.csv");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out: cannot write /proc/snowsim_out/s.csv"), std::string::npos)
+      << r.output;
+}
+
+// snowsim clumps prints its CSV only once every frame has been read: a damaged frame leaves no
+// partial table behind for a `> file` to keep.
+TEST(Cli, ClumpsOfADamagedRunPrintsNoRows) {
+  const fs::path run = freshDir("clumps_run");
+  ASSERT_EQ(runSnowsim("run " + scene("mpm_reference") + " -o " + run.string() +
+                       " --set time.duration=0.06 --no-png --no-mp4")
+                .code,
+            0);
+  Result r = runSnowsim("clumps " + run.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("\n2,0.0400,"), std::string::npos) << r.output;
+  fs::resize_file(run / "frame_00002.ply", fs::file_size(run / "frame_00002.ply") / 2);
+  r = runSnowsim("clumps " + run.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("frame_00002.ply"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("frame,time_s"), std::string::npos) << r.output;
 }
 
 TEST(Cli, HelpDescribesEachSubcommand) {

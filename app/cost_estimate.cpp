@@ -38,9 +38,12 @@ std::string roughDuration(double seconds) {
   return inUnits(seconds, {{5400, 3600, "%.1f h"}, {90, 60, "%.0f min"}, {-INFINITY, 1, "%.2g s"}});
 }
 
-CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& start)
+CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& start,
+                           double simulated, long steps_taken)
     : name_(scene.name),
-      duration_(scene.duration),
+      duration_(std::max(0.0, scene.duration - simulated)),
+      resumed_(simulated > 0),
+      steps_taken_(steps_taken),
       particles_(particles),
       initial_step_(std::min(scene.dt, start.step)) {
   char grid[96];
@@ -61,18 +64,19 @@ double CostEstimate::stepCount() const {
 std::string CostEstimate::before() const {
   char text[400];
   std::snprintf(text, sizeof text,
-                "%s: %s particles, %s; %g s simulated at a first step of %.2g s: about %s "
+                "%s: %s particles, %s; %g s %s at a first step of %.2g s: about %s "
                 "steps, %s particle-steps",
                 name_.c_str(), roughCount(particles_).c_str(), grid_.c_str(), duration_,
-                initial_step_, roughCount(stepCount()).c_str(),
-                roughCount(particle_steps_).c_str());
+                resumed_ ? "left to simulate" : "simulated", initial_step_,
+                roughCount(stepCount()).c_str(), roughCount(particle_steps_).c_str());
   return text;
 }
 
 std::string CostEstimate::afterStep(const Simulation& simulation) {
   if (said_) return "";
-  if (simulation.steps() == 1) seconds_after_first_ = simulation.stepSeconds();
-  if (seconds_after_first_ < 0 || simulation.steps() < 1 + measured_steps) return "";
+  const long steps = simulation.steps() - steps_taken_;
+  if (steps == 1) seconds_after_first_ = simulation.stepSeconds();
+  if (seconds_after_first_ < 0 || steps < 1 + measured_steps) return "";
   said_ = true;
   const double seconds = simulation.stepSeconds() - seconds_after_first_;
   const double rate = particles_ * double(measured_steps) / std::max(seconds, 1e-9);

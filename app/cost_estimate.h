@@ -17,7 +17,10 @@ class CostEstimate {
   static constexpr int measured_steps = 10;
 
   // Before the first step, which is time.dt or the stable step of `start`, whichever is smaller.
-  CostEstimate(const Scene& scene, int particles, const StepLimit& start);
+  // A resumed run gives the time it has simulated and the steps it has taken: the estimate is of
+  // what is left.
+  CostEstimate(const Scene& scene, int particles, const StepLimit& start, double simulated = 0,
+               long steps_taken = 0);
 
   // The step the run starts with.
   double initialStep() const { return initial_step_; }
@@ -33,7 +36,9 @@ class CostEstimate {
   double stepCount() const;  // of the duration at the first step
   std::string name_;
   std::string grid_;  // "10 x 12 cells of 0.01 m"
-  double duration_;
+  double duration_;   // left to simulate
+  bool resumed_;
+  long steps_taken_;
   int particles_;
   double initial_step_;
   double particle_steps_;

@@ -326,7 +326,8 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
   if (saved) progress.resumedAt(*simulation);
   const StepLimit start_limit = simulation->stepLimit();
-  CostEstimate estimate(scene, simulation->particleCount(), start_limit);
+  CostEstimate estimate(scene, simulation->particleCount(), start_limit, simulation->time(),
+                        simulation->steps());
   StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
                                : StepWatch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());

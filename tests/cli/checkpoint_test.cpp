@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -220,6 +221,14 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - resume_start).count();
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));
+  // Its cost is said of what was left, and timed over its own first steps.
+  std::smatch left;
+  ASSERT_TRUE(std::regex_search(resumed.output, left,
+                                std::regex("; ([0-9.e+-]+) s left to simulate at a first step")))
+      << resumed.output;
+  EXPECT_NEAR(std::stod(left[1]), 40 - stopped_at, 1e-3 * 40) << resumed.output;
+  EXPECT_NE(resumed.output.find("estimate: the steps take about"), std::string::npos)
+      << resumed.output;
   const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
   const auto uninterrupted = nlohmann::json::parse(std::ifstream(whole / "run.json"));
   EXPECT_EQ(summary["frames"], 3);

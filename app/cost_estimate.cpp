@@ -39,11 +39,11 @@ std::string roughDuration(double seconds) {
 }
 
 CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& start,
-                           double simulated, long steps_taken)
+                           std::optional<Resumed> resumed)
     : name_(scene.name),
-      duration_(std::max(0.0, scene.duration - simulated)),
-      resumed_(simulated > 0),
-      steps_taken_(steps_taken),
+      duration_(std::max(0.0, scene.duration - (resumed ? resumed->simulated : 0))),
+      resumed_(resumed.has_value()),
+      steps_taken_(resumed ? resumed->steps_taken : 0),
       particles_(particles),
       initial_step_(std::min(scene.dt, start.step)) {
   char grid[96];
@@ -64,7 +64,7 @@ double CostEstimate::stepCount() const {
 std::string CostEstimate::before() const {
   char text[400];
   std::snprintf(text, sizeof text,
-                "%s: %s particles, %s; %g s %s at a first step of %.2g s: about %s "
+                "%s: %s particles, %s; %.3g s %s at a first step of %.2g s: about %s "
                 "steps, %s particle-steps",
                 name_.c_str(), roughCount(particles_).c_str(), grid_.c_str(), duration_,
                 resumed_ ? "left to simulate" : "simulated", initial_step_,

@@ -1,9 +1,11 @@
-// What a run will cost, said before it starts: its particles, its grid, and the steps and
-// particle-steps its duration takes at the step it starts with; then, once its first steps are
-// measured, the time those particle-steps take at their rate. Both are lower bounds when the step
-// shrinks later (the snow speeds up or hardens), which the step watch (app/step_watch.h) reports.
+// What a run will cost, said before it starts (or resumes): its particles, its grid, and the steps
+// and particle-steps its duration (or what is left of it) takes at the step it starts with; then,
+// once its first steps are measured, the time those particle-steps take at their rate. Both are
+// lower bounds when the step shrinks later (the snow speeds up or hardens), which the step watch
+// (app/step_watch.h) reports.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "sim/scene/scene.h"
@@ -17,10 +19,14 @@ class CostEstimate {
   static constexpr int measured_steps = 10;
 
   // Before the first step, which is time.dt or the stable step of `start`, whichever is smaller.
-  // A resumed run gives the time it has simulated and the steps it has taken: the estimate is of
+  // A resumed run gives the time it had simulated and the steps it had taken: the estimate is of
   // what is left.
-  CostEstimate(const Scene& scene, int particles, const StepLimit& start, double simulated = 0,
-               long steps_taken = 0);
+  struct Resumed {
+    double simulated;
+    long steps_taken;
+  };
+  CostEstimate(const Scene& scene, int particles, const StepLimit& start,
+               std::optional<Resumed> resumed = std::nullopt);
 
   // The step the run starts with.
   double initialStep() const { return initial_step_; }

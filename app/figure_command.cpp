@@ -4,6 +4,9 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "app/commands.h"
 #include "app/options.h"
@@ -161,20 +164,36 @@ void reportFigure(const FigureOptions& options) {
   figure.finish();
   const std::string scene_dir = figures_file.substr(0, figures_file.find_last_of('/') + 1);
 
-  prepareOutputDirectory(options.out);
-  std::vector<std::vector<Panel>> panels;
-  std::optional<ColourBar> bar;
-  std::optional<ColourRange> range;  // the first row's, for every row
+  // Every row's scene is read and its times checked before the output directory is made.
+  struct Row {
+    Scene scene;
+    std::string label;
+    std::vector<double> times;
+  };
+  std::vector<Row> strips;
   for (size_t r = 0; r < rows->size(); ++r) {
     JsonFields row((*rows)[r], options.name + ".rows[" + std::to_string(r) + "]", figures_file);
     const std::string scene_name = row.string("scene", std::nullopt);
     const std::string label = row.string("label", "");
     const std::vector<double> times = row.numbers("times", std::nullopt, {1, 2, 3, 4, 5, 6, 7, 8});
+    Scene scene = loadScene(scene_dir + scene_name + ".json", options.overrides);
+    for (const double t : times)
+      if (t < 0 || t > scene.duration)
+        row.fail("times", numberText(t) + " is not allowed; allowed: times from 0 to " +
+                              scene_name + "'s duration, " + numberText(scene.duration) + " s");
     row.finish();
-    const Scene scene = loadScene(scene_dir + scene_name + ".json", options.overrides);
-    SceneStrip strip(scene, options, range);
+    strips.push_back({std::move(scene), label, times});
+  }
+
+  prepareOutputDirectory(options.out);
+  std::vector<std::vector<Panel>> panels;
+  std::optional<ColourBar> bar;
+  std::optional<ColourRange> range;  // the first row's, for every row
+  for (size_t r = 0; r < strips.size(); ++r) {
+    SceneStrip strip(strips[r].scene, options, range);
     panels.emplace_back();
-    for (double t : times) panels.back().push_back({strip.frameAt(t), timeLabel(label, t)});
+    for (double t : strips[r].times)
+      panels.back().push_back({strip.frameAt(t), timeLabel(strips[r].label, t)});
     if (r == 0) bar = strip.colourBar(), range = strip.colourRange();
   }
   writeFigure(options, options.name, panels, options.title.empty() ? title : options.title, bar);

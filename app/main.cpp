@@ -36,8 +36,12 @@ int main(int argc, char** argv) {
       names += (names.empty() ? "" : ", ") + command->get_name();
     }
     if (!known) {
-      std::fprintf(stderr, "snowsim: error: unknown command '%s'; the commands are %s\n", argv[1],
-                   names.c_str());
+      const std::string word = argv[1];
+      const bool scene_file = word.size() > 5 && word.compare(word.size() - 5, 5, ".json") == 0;
+      std::fprintf(stderr, "snowsim: error: unknown command '%s'; the commands are %s%s\n", argv[1],
+                   names.c_str(),
+                   scene_file ? " (a scene runs with: snowsim run SCENE.json)"
+                              : " (snowsim --help says more)");
       return 2;
     }
   }

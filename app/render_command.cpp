@@ -162,16 +162,16 @@ void renderFrames(const RenderCommandOptions& options) {
     if (options.render.givesFov()) settings.camera.fov_degrees = given.fov_degrees;
     if (options.render.givesCameraUp()) settings.camera.up = given.up;
   }
+  // Every frame is read before the first image is written, also when nothing is taken from
+  // them: a damaged one stops the command with nothing written.
   const bool scan_range =
       !options.render.givesColourRange() && !runs_colouring && settings.color_by != ColorBy::White;
   const bool frame_snow = run.dimension == 3 && !settings.camera.custom;
-  if (scan_range || frame_snow) {
-    Bounds bounds;
-    ColourRange range;
-    scanFrames(files, settings.color_by, bounds, range);
-    if (frame_snow) settings.camera.frame = bounds;
-    if (scan_range && range.high > range.low) settings.color_range = range;
-  }
+  Bounds bounds;
+  ColourRange range;
+  scanFrames(files, settings.color_by, bounds, range);
+  if (frame_snow) settings.camera.frame = bounds;
+  if (scan_range && range.high > range.low) settings.color_range = range;
   const VideoSettings video =
       options.render.videoSettings(run.fps, settings.width, settings.height);
   const std::string out = options.out.empty() ? options.frames : options.out;

@@ -152,7 +152,7 @@ void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSe
 VideoSettings RenderOptions::videoSettings(double scene_fps, int image_width,
                                            int image_height) const {
   VideoSettings v = video;
-  v.fps = command_ && command_->count("--mp4-fps") ? video_fps : scene_fps;
+  v.fps = given("--mp4-fps") ? video_fps : scene_fps;
   if (mp4) validate(v, image_width, image_height);
   return v;
 }

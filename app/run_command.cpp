@@ -326,8 +326,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
   if (saved) progress.resumedAt(*simulation);
   const StepLimit start_limit = simulation->stepLimit();
-  CostEstimate estimate(scene, simulation->particleCount(), start_limit, simulation->time(),
-                        simulation->steps());
+  CostEstimate estimate(
+      scene, simulation->particleCount(), start_limit,
+      saved ? std::optional<CostEstimate::Resumed>({simulation->time(), simulation->steps()})
+            : std::nullopt);
   StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
                                : StepWatch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());
@@ -590,7 +592,9 @@ void addResumeCommand(CLI::App& app) {
       "the scene and options it was started with: its frames are byte for byte those an "
       "uninterrupted run writes, the MP4 is rebuilt from the PNG frames already written. A "
       "missing, truncated or corrupted checkpoint, one of another snowsim version or of "
-      "another scene than the run's is refused with exit code 2, before anything is written.\n"
+      "another scene than the run's is refused with exit code 2, before anything is written. "
+      "Like a run, it first says what is left to simulate and, after its first steps, how long "
+      "that will take.\n"
       "Exit codes: as `snowsim run`.");
   cmd->callback([dir, threads] { resume(*dir, *threads); });
 }

@@ -52,9 +52,8 @@ void validate(const RenderSettings& s) {
   if (const auto& b = s.background)
     for (double c : *b)
       if (!(c >= 0 && c <= 1))
-        throw InputError(
-            "background colour (--background, render.background): " + std::to_string(c) +
-            " is out of range; allowed: 0 to 1 (red, green, blue)");
+        throw InputError("background colour (--background, render.background): " + numberText(c) +
+                         " is out of range; allowed: 0 to 1 (red, green, blue)");
   if (s.color_range && !(s.color_range->high > s.color_range->low))
     throw InputError("colour range [" + numberText(s.color_range->low) + ", " +
                      numberText(s.color_range->high) + "] is empty; allowed: low < high");

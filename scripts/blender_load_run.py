@@ -1,7 +1,10 @@
 """Loads a snowsim run into Blender (3.4 or later) as one animated object.
 
     blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb]
-    blender -b out.blend --python scripts/blender_load_run.py -- RUN_DIR --vdb   # and save it
+    blender -b --python scripts/blender_load_run.py --python-expr
+        "import bpy; bpy.ops.wm.save_as_mainfile(filepath='run.blend')" -- RUN_DIR --vdb
+
+(the second, on one line, without a display: the loaded run saved to run.blend)
 
 or, in Blender's Text Editor, set RUN_DIR below and press Run Script.
 

@@ -8,14 +8,18 @@ usage() {
   echo "usage: scripts/compare_frames.sh OLD_SNOWSIM NEW_SNOWSIM [WORK_DIR]" >&2
   exit 2
 }
-[ $# -ge 2 ] && [ $# -le 3 ] || usage
+if [ $# -lt 2 ] || [ $# -gt 3 ]; then usage; fi
+# Paths are the caller's: resolved before the cd to the sources.
 for binary in "$1" "$2"; do
-  [ -x "$binary" ] || { echo "compare_frames.sh: $binary is not an executable" >&2; usage; }
+  if [ ! -x "$binary" ]; then
+    echo "compare_frames.sh: $binary is not an executable" >&2
+    usage
+  fi
 done
+old=$(realpath -e "$1")
+new=$(realpath -e "$2")
+work=$(realpath -m "${3:-$(mktemp -d)}")
 cd "$(dirname "$0")/.."
-old=$(realpath "$1")
-new=$(realpath "$2")
-work=${3:-$(mktemp -d)}
 mkdir -p "$work"
 
 cases=()

@@ -281,7 +281,7 @@ std::vector<ColliderKey> parseKeyframes(const Json& keys, const JsonFields& coll
     ColliderKey key;
     key.time = k.number("time", std::nullopt, 0);
     if (!out.empty() && !(key.time > out.back().time))
-      k.fail("time", "must be later than the key before (" + std::to_string(out.back().time) +
+      k.fail("time", "must be later than the key before (" + numberText(out.back().time) +
                          " s); keys are in time order");
     key.position = toVec3(k.numbers("position", std::nullopt, dims));
     key.rotation = parseRotation(k, "rotation", scene.authored_dimension);

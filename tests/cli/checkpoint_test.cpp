@@ -226,7 +226,7 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   ASSERT_TRUE(std::regex_search(resumed.output, left,
                                 std::regex("; ([0-9.e+-]+) s left to simulate at a first step")))
       << resumed.output;
-  EXPECT_NEAR(std::stod(left[1]), 40 - stopped_at, 1e-3 * 40) << resumed.output;
+  EXPECT_NEAR(std::stod(left[1]), 40 - stopped_at, 0.2) << resumed.output;  // 3 digits
   EXPECT_NE(resumed.output.find("estimate: the steps take about"), std::string::npos)
       << resumed.output;
   const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));

@@ -128,6 +128,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps 0", "--mp4-fps: 0 is outside");
   expectRejected("figure " + scene("snowball_drop") + " --times 0.2,5", "--times: 5 is not");
+  expectRejected("figure " + scene("snowball_drop") + " --threads 0", "--threads");
+  expectRejected("figure fig2 --set time.duration=0.01", "fig2.rows[0].times: 0.02 is not");
   expectRejected("run " + scene("snowball_drop") + " --look noir", "allowed: studio, figure");
   expectRejected("run " + scene("snowball_drop") + " --background 1,2,0", "--background");
   expectRejected("run " + scene("snowball_drop") + " --set render.look=noir", "render.look");
@@ -516,6 +518,14 @@ TEST(Cli, RenderRedrawsSavedFrames) {
       runSnowsim("render " + out.string() + " --color-by density --width 200 --height 100");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
+  // A damaged frame stops it before the first image, also where the run's own colouring and
+  // camera leave nothing to read from the frames.
+  fs::resize_file(out / "frame_00002.ply", fs::file_size(out / "frame_00002.ply") / 2);
+  const fs::path again = freshDir("render_damaged");
+  const Result damaged = runSnowsim("render " + out.string() + " -o " + again.string());
+  EXPECT_EQ(damaged.code, 2) << damaged.output;
+  EXPECT_NE(damaged.output.find("frame_00002.ply"), std::string::npos) << damaged.output;
+  EXPECT_FALSE(fs::exists(again)) << "images written before the damaged frame";
 }
 
 // run.json records the scene's colliders and colliders.json where they are at every frame;
@@ -692,6 +702,10 @@ TEST(Cli, AMisspeltCommandIsNamed) {
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("unknown command 'rnu'; the commands are run, resume"), std::string::npos)
       << r.output;
+  const Result scene_first = runSnowsim(scene("snowball_drop"));
+  EXPECT_EQ(scene_first.code, 2) << scene_first.output;
+  EXPECT_NE(scene_first.output.find("a scene runs with: snowsim run SCENE.json"), std::string::npos)
+      << scene_first.output;
 }
 
 // A study stops before its CSV is begun when a scene of its preset cannot be read or the CSV

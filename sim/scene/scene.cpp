@@ -535,6 +535,21 @@ SceneOutput parseOutput(const Json* j, const std::string& file) {
   return o;
 }
 
+// The first body centre or collider position given with 3 numbers ("bodies[0].center"), or "".
+std::string firstPlacedIn3D(const Json& root) {
+  for (const auto& [list, field] : {std::pair{"bodies", "center"}, {"colliders", "position"}}) {
+    const auto it = root.find(list);
+    if (it == root.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const Json& item = (*it)[i];
+      if (item.is_object() && item.contains(field) && item[field].is_array() &&
+          item[field].size() == 3)
+        return std::string(list) + "[" + std::to_string(i) + "]." + field;
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 Scene parseScene(const Json& root, const std::string& file) {
@@ -552,6 +567,12 @@ Scene parseScene(const Json& root, const std::string& file) {
   s.authored_dimension = static_cast<int>(cells.size());
   if (s.authored_dimension == 3 && s.dimension == 2)
     g.fail("cells", "has 3 entries but the scene's dimension is 2 (a 3D scene cannot run in 2D)");
+  if (const std::string placed = firstPlacedIn3D(root);
+      s.authored_dimension == 2 && s.dimension == 3 && !placed.empty())
+    g.fail("cells",
+           "has 2 entries, which makes the scene 2D (extruded through a slab when run in "
+           "3D), but " +
+               placed + " has 3; a 3D scene gives grid.cells 3 entries");
   for (size_t a = 0; a < cells.size(); ++a) {
     if (cells[a] != std::floor(cells[a]) || cells[a] < 1 || cells[a] > 4096)
       g.fail("cells", "each entry must be a whole number from 1 to 4096");

@@ -20,7 +20,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include "sim/core/bspline.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -35,23 +34,6 @@ namespace {
 constexpr int D = 3;
 using V = Vec<D>;
 using M = Mat<D>;
-
-// f(i, w_ip, x_i - x_p) over the 27 nodes of a particle's quadratic B-spline stencil.
-template <class F>
-void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
-  Real w[D][3], dw[D][3];
-  IVec<D> base;
-  for (int a = 0; a < D; ++a) base[a] = QuadraticBSpline::weights(x[a] / grid.h, w[a], dw[a]);
-  for (int n = 0; n < 27; ++n) {
-    IVec<D> i;
-    Real w_ip = 1;
-    for (int a = 0, rest = n; a < D; ++a, rest /= 3) {
-      i[a] = base[a] + rest % 3;
-      w_ip *= w[a][rest % 3];
-    }
-    f(grid.index(i), w_ip, V(grid.position(i) - x));
-  }
-}
 
 // What softening leaves of the snow's strength: 1 up to J_P = 1, 0 from ln J_P = eps_f.
 Real strengthLeft(Real J_P, Real eps_f) {
@@ -100,7 +82,7 @@ struct Experiment {
     const int n = s.x.size();
     for (int p = 0; p < n; ++p) {
       const Real d = 1 - strengthLeft(s.J_P[p], eps_f);
-      forEachNode(s.grid, s.x[p], [&](int i, Real w, const V&) {
+      forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V&) {
         grid.mass[0][i] += w * s.m[p];
         grid.damage[i] += w * s.m[p] * d;
       });
@@ -109,11 +91,12 @@ struct Experiment {
       if (grid.mass[0][i] > 0) grid.damage[i] /= grid.mass[0][i];
     for (int p = 0; p < n; ++p) {
       V gradient = V::Zero();
-      forEachNode(s.grid, s.x[p],
-                  [&](int i, Real w, const V& dx) { gradient += w * grid.damage[i] * D_inv * dx; });
+      forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
+        gradient += w * grid.damage[i] * D_inv * dx;
+      });
       damage_gradient[p] = gradient;
       const Real norm = gradient.norm();
-      forEachNode(s.grid, s.x[p], [&](int i, Real w, const V&) {
+      forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V&) {
         if (w > 0 && norm > grid.reference_norm[i])
           grid.reference_norm[i] = norm, grid.reference[i] = gradient;
       });
@@ -135,7 +118,7 @@ struct Experiment {
       M tau = fixedCorotatedKirchhoff<D>(s.F_E[p], polarRotation<D>(s.F_E[p]), lame);
       tau += s.material.viscosity * left * (s.C[p] + s.C[p].transpose());
       const M A = s.m[p] * s.C[p] + dt * D_inv * (-s.V0[p] * tau);
-      forEachNode(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
+      forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
         const int side = sideOf(p, i);
         grid.mass[side][i] += w * s.m[p];
         grid.velocity[side][i] += w * (s.m[p] * s.v[p] + A * dx);
@@ -164,7 +147,7 @@ struct Experiment {
       V v = V::Zero();
       M B = M::Zero();
       Real node_mass = 0;
-      forEachNode(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
+      forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
         const V& v_i = grid.velocity[sideOf(p, i)][i];
         v += w * v_i;
         B += w * v_i * dx.transpose();

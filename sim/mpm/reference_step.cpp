@@ -2,34 +2,10 @@
 
 #include <algorithm>
 
-#include "sim/core/bspline.h"
 #include "sim/core/errors.h"
 #include "sim/solver.h"
 
 namespace snowsim {
-
-namespace {
-
-// f(k, w_ip, x_i - x_p) for the 3^D nodes i of the quadratic B-spline stencil of a particle at x:
-// w_ip = prod_a N(x_a / h - i_a) (Stomakhin et al. 2013, eqs. 5-6, with quadratic N).
-template <int D, class F>
-void forEachNode(const GridGeometry<D>& grid, const Vec<D>& x, F&& f) {
-  Real w[D][3], dw[D][3];
-  IVec<D> base;
-  for (int a = 0; a < D; ++a) base[a] = QuadraticBSpline::weights(x[a] / grid.h, w[a], dw[a]);
-  const int nodes = D == 2 ? 9 : 27;
-  for (int n = 0; n < nodes; ++n) {
-    IVec<D> i;
-    Real w_ip = 1;
-    for (int a = 0, rest = n; a < D; ++a, rest /= 3) {
-      i[a] = base[a] + rest % 3;
-      w_ip *= w[a][rest % 3];
-    }
-    f(grid.index(i), w_ip, Vec<D>(grid.position(i) - x));
-  }
-}
-
-}  // namespace
 
 template <int D>
 ReferenceState<D> makeReferenceState(const Scene& scene, const Particles<D>& particles) {
@@ -77,7 +53,7 @@ void referenceStep(ReferenceState<D>& s, Real dt) {
     // R_E the polar rotation of F_E.
     const Mat<D> tau = fixedCorotatedKirchhoff<D>(s.F_E[p], polarRotation<D>(s.F_E[p]), lame);
     const Mat<D> A = s.m[p] * s.C[p] + dt * D_inv * (-s.V0[p] * tau);
-    forEachNode<D>(s.grid, s.x[p], [&](int i, Real w, const Vec<D>& dx) {
+    forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const Vec<D>& dx) {
       s.grid_m[i] += w * s.m[p];
       s.grid_v[i] += w * (s.m[p] * s.v[p] + A * dx);
     });
@@ -99,7 +75,7 @@ void referenceStep(ReferenceState<D>& s, Real dt) {
   for (int p = 0; p < static_cast<int>(s.x.size()); ++p) {
     Vec<D> v = Vec<D>::Zero();
     Mat<D> B = Mat<D>::Zero();
-    forEachNode<D>(s.grid, s.x[p], [&](int i, Real w, const Vec<D>& dx) {
+    forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const Vec<D>& dx) {
       v += w * s.grid_v[i];                   // v_p = sum_i w_ip v_i
       B += w * s.grid_v[i] * dx.transpose();  // B_p = sum_i w_ip v_i (x_i - x_p)^T
     });

@@ -10,6 +10,7 @@
 
 #include <vector>
 
+#include "sim/core/bspline.h"
 #include "sim/core/collider.h"
 #include "sim/core/grid.h"
 #include "sim/core/particles.h"
@@ -42,6 +43,26 @@ struct ReferenceState {
 // Throws InputError unless scene.mpm asks for MLS, quadratic, explicit and lattice volumes.
 template <int D>
 ReferenceState<D> makeReferenceState(const Scene& scene, const Particles<D>& particles);
+
+// f(k, w_ip, x_i - x_p) for the 3^D nodes i of the quadratic B-spline stencil of a particle at x,
+// written plainly so that it checks the solver's stencil code rather than sharing it:
+// w_ip = prod_a N(x_a / h - i_a) (Stomakhin et al. 2013, eqs. 5-6, with quadratic N).
+template <int D, class F>
+inline void forEachReferenceNode(const GridGeometry<D>& grid, const Vec<D>& x, F&& f) {
+  Real w[D][3], dw[D][3];
+  IVec<D> base;
+  for (int a = 0; a < D; ++a) base[a] = QuadraticBSpline::weights(x[a] / grid.h, w[a], dw[a]);
+  const int nodes = D == 2 ? 9 : 27;
+  for (int n = 0; n < nodes; ++n) {
+    IVec<D> i;
+    Real w_ip = 1;
+    for (int a = 0, rest = n; a < D; ++a, rest /= 3) {
+      i[a] = base[a] + rest % 3;
+      w_ip *= w[a][rest % 3];
+    }
+    f(grid.index(i), w_ip, Vec<D>(grid.position(i) - x));
+  }
+}
 
 // One explicit MLS-MPM step of dt seconds.
 template <int D>

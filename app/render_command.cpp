@@ -72,12 +72,12 @@ void readColliderFrames(const std::filesystem::path& file, RunSummary& run) {
   }
 }
 
-RunSummary readRunSummary(const std::filesystem::path& dir) {
-  RunSummary run;
+// run.json's settings and colliders at time 0, where the run wrote one.
+void readRunJson(const std::filesystem::path& dir, RunSummary& run) {
   std::ifstream in(dir / "run.json");
-  if (!in) return run;
+  if (!in) return;
   const auto summary = nlohmann::json::parse(in, nullptr, false);
-  if (summary.is_discarded()) return run;
+  if (summary.is_discarded()) return;
   run.fps = summary.value("fps", run.fps);
   run.name = summary.value("scene", run.name);
   run.dimension = summary.value("dimension", run.dimension);
@@ -112,6 +112,12 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
   }
   if (summary.contains("colliders"))
     run.colliders = collidersFromJson(summary["colliders"], (dir / "run.json").string());
+}
+
+// colliders.json is read with or without a run.json beside it (frames from another program).
+RunSummary readRunSummary(const std::filesystem::path& dir) {
+  RunSummary run;
+  readRunJson(dir, run);
   readColliderFrames(dir / "colliders.json", run);
   return run;
 }

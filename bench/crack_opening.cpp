@@ -11,7 +11,7 @@
 //    same way as the node's largest nearby damage gradient, else to side 1; the two sides share one
 //    velocity (their centre of mass's) only while they approach each other.
 // Prints, per frame, the clump shares of `snowsim clumps`, and writes the frames as PLY into OUT
-// (`snowsim render OUT` draws them).
+// with the colliders' colliders.json (`snowsim render OUT` draws them).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +20,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "app/collider_json.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -217,6 +218,9 @@ void run(const Options& o) {
                 c.single_share);
     std::fflush(stdout);
   }
+  if (!scene.colliders.empty())
+    writeFileAtomically(o.out + "/colliders.json",
+                        colliderFramesJson(scene, frames + 1).dump(1) + "\n");
 }
 
 }  // namespace

@@ -563,6 +563,19 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
   EXPECT_EQ(image("frame_00001.png"), from_run) << "render draws what run drew, collider too";
 
+  // Frames and colliders.json without a run.json (another program's frames): the colliders drawn.
+  const fs::path bare = freshDir("render_colliders_bare");
+  fs::create_directories(bare);
+  for (const char* name : {"frame_00000.ply", "frame_00001.ply"}) fs::copy(out / name, bare / name);
+  const auto bareImage = [&] {
+    EXPECT_EQ(runSnowsim("render " + bare.string() + " --no-mp4 --width 200 --height 160").code, 0);
+    std::ifstream in(bare / "frame_00001.png", std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string without_colliders = bareImage();
+  fs::copy(out / "colliders.json", bare / "colliders.json");
+  EXPECT_NE(bareImage(), without_colliders) << "colliders.json without run.json not drawn";
+
   fs::remove(out / "colliders.json");  // run.json's collider, moved on without turning
   ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
   EXPECT_NE(image("frame_00001.png"), from_run) << "the collider unturned differs";

@@ -69,6 +69,9 @@ struct Experiment {
   TwoSidedGrid grid;
   std::vector<V> damage_gradient;  // per particle
   std::vector<Real> density;       // per particle, from the nodes' mass
+  // Per particle, from the last return mapping: F_E's polar rotation, which the next scatter's
+  // stress needs, and its SVD's V, where the next return mapping's SVD starts.
+  std::vector<M> rotation, svd_v;
   Real eps_f;
   bool split;
 
@@ -116,7 +119,7 @@ struct Experiment {
       const Real left = strengthLeft(s.J_P[p], eps_f);
       Lame lame = hardenedLame(s.material, s.J_P[p]);
       lame.mu *= left, lame.lambda *= left;
-      M tau = fixedCorotatedKirchhoff<D>(s.F_E[p], polarRotation<D>(s.F_E[p]), lame);
+      M tau = fixedCorotatedKirchhoff<D>(s.F_E[p], rotation[p], lame);
       tau += s.material.viscosity * left * (s.C[p] + s.C[p].transpose());
       const M A = s.m[p] * s.C[p] + dt * D_inv * (-s.V0[p] * tau);
       forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V& dx) {
@@ -158,8 +161,7 @@ struct Experiment {
       s.v[p] = v;
       s.C[p] = D_inv * B;
       s.F_E[p] = (I + dt * s.C[p]) * s.F_E[p];
-      M R_E, V_E = I;
-      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], R_E, V_E);
+      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], rotation[p], svd_v[p]);
       for (const Collider<D>& c : s.colliders) c.collide(s.x[p], s.v[p]);
       s.x[p] += dt * s.v[p];
       for (const Collider<D>& c : s.colliders) c.pushOut(s.x[p]);
@@ -184,10 +186,13 @@ void run(const Options& o) {
   const Particles<D> particles = sampleBodies<D>(scene);
   // The frames' format (grid, colliders, masses, radii) from the solver's own first frame.
   Snapshot frame = makeSimulation(scene, 1)->snapshot(0);
-  Experiment e{makeReferenceState<D>(scene, particles), TwoSidedGrid(0), {}, {}, o.eps_f, o.split};
+  Experiment e{
+      makeReferenceState<D>(scene, particles), TwoSidedGrid(0), {}, {}, {}, {}, o.eps_f, o.split};
   e.grid = TwoSidedGrid(e.s.grid.nodeCount());
   e.damage_gradient.assign(e.s.x.size(), V::Zero());
   e.density.assign(e.s.x.size(), 0);
+  e.svd_v.assign(e.s.x.size(), M::Identity());
+  for (const M& F_E : e.s.F_E) e.rotation.push_back(polarRotation<D>(F_E));
   for (int p = 0; p < frame.size(); ++p)  // the same particles in the same order
     for (int a = 0; a < 3; ++a)
       if (std::abs(frame.position[p][a] - e.s.x[p][a]) > 1e-6)

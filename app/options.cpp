@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cmath>
 
 namespace snowsim {
 
@@ -32,6 +34,19 @@ void addThreadsOption(CLI::App& command, int& threads) {
                   "Threads of the MPM solver (default: OMP_NUM_THREADS, else every core); the "
                   "simulated frames do not depend on it")
       ->check(CLI::Validator(check, "1 to 1024"));
+}
+
+CLI::Validator zeroOrMore(bool whole) {
+  const std::string allowed = whole ? "a whole number, 0 or more" : "a number, 0 or more";
+  const auto check = [whole, allowed](std::string& text) -> std::string {
+    double value = -1;
+    const char* end = text.data() + text.size();
+    const auto [at, error] = std::from_chars(text.data(), end, value);
+    if (error == std::errc() && at == end && value >= 0 && (!whole || value == std::floor(value)))
+      return "";
+    return "\"" + text + "\" is not allowed; allowed: " + allowed;
+  };
+  return CLI::Validator(check, "0 or more");
 }
 
 void addOffFlag(CLI::App& command, const std::string& name, bool& value, const std::string& help) {

@@ -17,6 +17,10 @@ std::vector<std::string> argumentsAfter(const std::string& subcommand);
 // the option is not given.
 void addThreadsOption(CLI::App& command, int& threads);
 
+// A check that an option's value is a number (whole: a whole number) of 0 or more, naming what is
+// allowed where CLI11's own check would print its range's limits in full.
+CLI::Validator zeroOrMore(bool whole);
+
 // A flag that turns `value` off, e.g. --no-png; its help reads without CLI11's "{false}".
 void addOffFlag(CLI::App& command, const std::string& name, bool& value, const std::string& help);
 

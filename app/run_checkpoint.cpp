@@ -61,7 +61,17 @@ SavedRun loadCheckpoint(const std::string& dir) {
     throw InputError(saved.file + ": no checkpoint to resume from" +
                      (fs::exists(dir + "/run.json") ? " (run.json is there: the run ended)"
                                                     : " (is " + dir + " a run's --out?)"));
-  Checkpoint checkpoint = readCheckpoint(saved.file);
+  // A damaged checkpoint names the one before it, kept beside it, to resume from instead.
+  Checkpoint checkpoint = [&] {
+    try {
+      return readCheckpoint(saved.file);
+    } catch (const InputError& e) {
+      const std::string previous = saved.file + ".prev";
+      if (!fs::exists(previous)) throw;
+      throw InputError(std::string(e.what()) + "; the checkpoint before it is " + previous +
+                       ": `mv " + previous + " " + saved.file + "` resumes from there");
+    }
+  }();
   const auto refuse = [&](const std::string& problem) {
     return InputError(saved.file + ": " + problem);
   };

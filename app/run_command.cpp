@@ -212,13 +212,39 @@ Scene resolvedScene(const RunOptions& options) {
 }
 
 // The frames an interrupted run wrote, into the video anew: a resumed run's MP4 holds each frame
-// once. They are read back from the PNGs, which it must have.
-void replayFrames(const std::string& dir, int count, RenderSink& sink) {
+// once. They are read back from the PNGs, or without PNGs drawn again from the PLY frames, as
+// `snowsim render` draws them (the same images: a PLY holds what the drawing reads).
+void replayFrames(const std::string& dir, int count, bool from_png, const Scene& scene,
+                  RenderSink& sink) {
   for (int frame = 0; frame < count; ++frame) {
     char name[32];
-    std::snprintf(name, sizeof name, "/frame_%05d.png", frame);
-    sink.addToVideo(readPng(dir + name));
+    std::snprintf(name, sizeof name, "/frame_%05d.%s", frame, from_png ? "png" : "ply");
+    if (from_png) {
+      sink.addToVideo(readPng(dir + name));
+      continue;
+    }
+    Snapshot snapshot = readPly(dir + name);
+    snapshot.colliders = collidersAt(scene, scene.dimension, snapshot.time);
+    sink.write(snapshot);  // no PNG directory: into the video only
   }
+}
+
+// A checkpoint holds each rank's share of the state: it resumes across as many ranks as wrote it,
+// which it records (one written before it did is left to the solver's own check).
+void checkRanksOf(const SavedRun& saved, int ranks) {
+  const nlohmann::json& wrote = saved.run_state.value("ranks", nlohmann::json());
+  if (!wrote.is_number_integer() || wrote.get<int>() == ranks) return;
+  const int n = wrote.get<int>();
+  const std::string dir = std::filesystem::path(saved.file).parent_path().string();
+  const std::string across = [](int r) {
+    return r == 1 ? std::string("in one process") : "across " + std::to_string(r) + " MPI ranks";
+  }(ranks);
+  throw InputError(saved.file + ": written by a run " +
+                   (n == 1 ? "in one process; resume it in one: snowsim resume " + dir
+                           : "across " + std::to_string(n) +
+                                 " MPI ranks; resume it across as many: mpirun -np " +
+                                 std::to_string(n) + " snowsim resume " + dir) +
+                   " (not " + across + ")");
 }
 
 // run, or resume from `saved` (the scene and state of a checkpoint of options.out).
@@ -256,6 +282,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
       saved ? saved->scene
             : (world.ranks() > 1 ? sceneOnEveryRank(options, world) : resolvedScene(options));
   const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
+  if (saved) checkRanksOf(*saved, world.ranks());
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -273,11 +300,11 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     return estimateOnly(scene, options.threads, world);
   }
   const std::string video_name = scene.name + ".mp4";
-  if (saved && options.render.mp4 && !options.render.png)
+  if (saved && options.render.mp4 && !options.render.png && !options.ply)
     throw InputError(saved->file +
-                     ": the run writes an MP4 but no PNG frames, from which resume "
-                     "would rebuild the video's first frames; a run to be resumed with --mp4 "
-                     "keeps its PNGs");
+                     ": the run writes an MP4 but neither PNG nor PLY frames, from which resume "
+                     "would rebuild the video's first frames; `snowsim resume " +
+                     options.out + " --no-mp4` continues it without the video");
   const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
   std::string refused;
   if (writes) try {
@@ -313,7 +340,8 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
       auto render_sink = std::make_unique<RenderSink>(
           render, options.render.png ? options.out : "",
           options.render.mp4 ? options.out + "/" + video_name : "", video, &clock);
-      if (options.render.mp4) replayFrames(options.out, first_frame, *render_sink);
+      if (options.render.mp4)
+        replayFrames(options.out, first_frame, options.render.png, scene, *render_sink);
       sinks.push_back(std::move(render_sink));
     }
   }
@@ -341,8 +369,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
           scene.output.checkpoint_minutes.value_or(kDefaultCheckpointMinutes)));
   const auto checkpoint = [&](int next_frame) {
     const StageClock::Scope time(&clock, "checkpoint");
-    nlohmann::json state = {
-        {"args", options.args}, {"next_frame", next_frame}, {"step_watch", step_watch.state()}};
+    nlohmann::json state = {{"args", options.args},
+                            {"next_frame", next_frame},
+                            {"step_watch", step_watch.state()},
+                            {"ranks", world.ranks()}};
     state["earlier_sessions"] = SessionTimes{earlier.sessions + 1, earlier.wall + wallTime(),
                                              stageTimes(*simulation, clock, earlier.stages)}
                                     .toJson();
@@ -519,16 +549,17 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
                   "Write a checkpoint (checkpoint.snowsim) every N frames, besides every "
                   "--checkpoint-minutes; `snowsim resume` continues from it (default: the "
                   "scene's output.checkpoint_every_frames, else 0: not by count)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(zeroOrMore(true));
   cmd->add_option("--checkpoint-minutes", options->checkpoint_minutes,
                   "Write a checkpoint at the first frame after this much wall time (0: only "
                   "every --checkpoint-every frames and when stopped by a signal; default: the "
                   "scene's output.checkpoint_minutes, else 5)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(zeroOrMore(false));
 }
 
 // snowsim resume DIR: the run in DIR continued from its checkpoint with its own command line.
-void resume(const std::string& dir, int threads) {
+// drop_video: the run goes on without its MP4 (resume --no-mp4), as if started with --no-mp4.
+void resume(const std::string& dir, int threads, bool drop_video) {
   const SavedRun saved = loadCheckpoint(dir);
   RunOptions options;
   CLI::App parser;
@@ -542,6 +573,10 @@ void resume(const std::string& dir, int threads) {
   } catch (const std::exception& e) {
     throw InputError(saved.file + ": the run's command line it records does not parse (" +
                      e.what() + ")");
+  }
+  if (drop_video && options.render.mp4) {
+    options.render.mp4 = false;
+    args.push_back("--no-mp4");  // and so do later resumes
   }
   options.args = args;
   options.out = dir;
@@ -582,21 +617,27 @@ void addRunCommand(CLI::App& app) {
 void addResumeCommand(CLI::App& app) {
   auto dir = std::make_shared<std::string>();
   auto threads = std::make_shared<int>(0);
+  auto video = std::make_shared<bool>(true);
   CLI::App* cmd = app.add_subcommand(
       "resume", "Continue a stopped or killed run from the checkpoint in its output directory");
   cmd->add_option("dir", *dir, "The run's output directory (its --out)")->required();
   addThreadsOption(*cmd, *threads);
+  addOffFlag(*cmd, "--no-mp4", *video,
+             "Go on without the run's MP4 video, needed where the run writes neither PNG nor "
+             "PLY frames to rebuild its first frames from (the video of the frames before the "
+             "stop stays as it is)");
   cmd->footer(
       "Reads DIR/checkpoint.snowsim, which `snowsim run` writes every --checkpoint-minutes or "
       "--checkpoint-every frames and when stopped by Ctrl-C/SIGTERM, and continues the run with "
       "the scene and options it was started with: its frames are byte for byte those an "
-      "uninterrupted run writes, the MP4 is rebuilt from the PNG frames already written. A "
+      "uninterrupted run writes, the MP4 is rebuilt from the PNG (else PLY) frames already "
+      "written. A "
       "missing, truncated or corrupted checkpoint, one of another snowsim version or of "
       "another scene than the run's is refused with exit code 2, before anything is written. "
       "Like a run, it first says what is left to simulate and, after its first steps, how long "
       "that will take.\n"
       "Exit codes: as `snowsim run`.");
-  cmd->callback([dir, threads] { resume(*dir, *threads); });
+  cmd->callback([dir, threads, video] { resume(*dir, *threads, !*video); });
 }
 
 }  // namespace snowsim

@@ -280,6 +280,60 @@ TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
   EXPECT_EQ(pngs, 11);
 }
 
+// The decoded pictures of a video, one MD5 a frame (ffmpeg's framemd5, without its header).
+std::string pictureHashes(const fs::path& video) {
+  const auto hashes = snowsim_test::runCommand("ffmpeg -v error -i " + video.string() +
+                                               " -f framemd5 - | grep -v '^#'");
+  return hashes.output;
+}
+
+// A run that writes its MP4 but no PNGs, killed and resumed: the video's first frames are drawn
+// again from the PLY frames (colliders included), to the very pictures of an uninterrupted run.
+TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
+  const fs::path out = freshDir("video_from_ply"), whole = freshDir("video_from_ply_whole");
+  std::vector<std::string> args = runArgs(kCases[2], out, 1);
+  std::erase(args, std::string("--no-mp4"));
+  args.push_back("--no-png");
+  const pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / frameName(4, "ply")));
+  finish(child, SIGKILL);
+  const auto resumed = runSnowsim("resume " + out.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  std::vector<std::string> uninterrupted = runArgs(kCases[2], whole, 1);
+  std::erase(uninterrupted, std::string("--no-mp4"));
+  uninterrupted.push_back("--no-png");
+  ASSERT_EQ(runSnowsim(commandLine(uninterrupted)).code, 0);
+  const std::string hashes = pictureHashes(out / "mpm_snowball_wall.mp4");
+  EXPECT_EQ(std::count(hashes.begin(), hashes.end(), '\n'), 11) << hashes;
+  EXPECT_EQ(hashes, pictureHashes(whole / "mpm_snowball_wall.mp4"));
+}
+
+// A run that writes nothing but its MP4 cannot rebuild the video's first frames: resume says so
+// and names --no-mp4, which goes on without the video, leaving the stopped run's video of its
+// first frames as it was.
+TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
+  const fs::path out = freshDir("video_only");
+  std::vector<std::string> args = runArgs(kCases[2], out, 1);
+  std::erase(args, std::string("--no-mp4"));
+  args.insert(args.end(), {"--no-png", "--no-ply", "--set", "time.duration=1"});
+  const pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / "checkpoint.snowsim"));
+  const int status = finish(child, SIGTERM);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before it was stopped";
+  const std::string stopped_video = bytesOf(out / "mpm_snowball_wall.mp4");
+  const auto refused = runSnowsim("resume " + out.string());
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--no-mp4"), std::string::npos) << refused.output;
+  const auto resumed = runSnowsim("resume " + out.string() + " --no-mp4");
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_FALSE(
+      nlohmann::json::parse(std::ifstream(out / "run.json")).contains("interrupted_by_signal"));
+  EXPECT_EQ(bytesOf(out / "mpm_snowball_wall.mp4"), stopped_video) << "the stopped run's video";
+  for (const auto& entry : fs::directory_iterator(out))
+    EXPECT_FALSE(entry.path().filename().string().ends_with(".part")) << entry.path();
+}
+
 // A checkpoint that is truncated, corrupted, of another format or snowsim version, of another
 // scene or with a damaged record of its sessions: exit 2, a message naming it, and not a byte of
 // the run's frames changed.
@@ -325,6 +379,13 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
     EXPECT_NE(r.output.find(problem), std::string::npos) << r.output;
     EXPECT_EQ(frames(out), frames_before);
   }
+  // Damaged, it names the checkpoint before it, which resumes.
+  ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim.prev"));
+  std::ofstream(file, std::ios::binary) << corrupted;
+  const auto damaged = runSnowsim("resume " + out.string());
+  EXPECT_NE(damaged.output.find("mv " + file.string() + ".prev " + file.string()),
+            std::string::npos)
+      << damaged.output;
   fs::remove(file);
   const auto missing = runSnowsim("resume " + out.string());
   EXPECT_EQ(missing.code, 2);

@@ -129,6 +129,10 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-crf 60", "--mp4-crf: 60");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps -5", "--mp4-fps");
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps 0", "--mp4-fps: 0 is outside");
+  expectRejected("run " + scene("snowball_drop") + " --checkpoint-every -1",
+                 "--checkpoint-every: \"-1\" is not allowed; allowed: a whole number, 0 or more");
+  expectRejected("run " + scene("snowball_drop") + " --checkpoint-minutes ten",
+                 "--checkpoint-minutes: \"ten\" is not allowed; allowed: a number, 0 or more");
   expectRejected("figure " + scene("snowball_drop") + " --times 0.2,5", "--times: 5 is not");
   expectRejected("figure " + scene("snowball_drop") + " --threads 0", "--threads");
   expectRejected("figure fig2 --set time.duration=0.01", "fig2.rows[0].times: 0.02 is not");

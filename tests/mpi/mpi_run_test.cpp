@@ -124,10 +124,17 @@ TEST(Mpi, ResumeAcrossRanksWritesTheFramesOfTheWholeRun) {
   waitpid(child, &status, 0);
   ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim")) << "stopped without a checkpoint";
   EXPECT_EQ(summaryOf(out)["interrupted_by_signal"], SIGTERM);
-  // A checkpoint of 2 ranks is refused by another count, naming the count it needs.
-  const auto other = runCommand(mpirun(4) + " resume " + out.string());
-  EXPECT_EQ(other.code, 2);
-  EXPECT_NE(other.output.find("mpirun -np 2"), std::string::npos) << other.output;
+  // A checkpoint of 2 ranks is refused by another count, or by one process, naming the count it
+  // needs, from rank 0 alone and before any rank reads it.
+  for (const std::string& launch : {mpirun(4), std::string(SNOWSIM_BINARY)}) {
+    const auto other = runCommand(launch + " resume " + out.string());
+    EXPECT_EQ(other.code, 2) << other.output;
+    EXPECT_NE(other.output.find("written by a run across 2 MPI ranks; resume it across as many: "
+                                "mpirun -np 2 snowsim resume"),
+              std::string::npos)
+        << other.output;
+    EXPECT_EQ(other.output.find("MPI_ABORT"), std::string::npos) << other.output;
+  }
   const auto resumed = runCommand(mpirun(2) + " resume " + out.string());
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));

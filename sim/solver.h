@@ -106,6 +106,7 @@ class Solver {
   // The largest time step the solver's stability allows now (infinity when it has no limit).
   virtual Real stableTimeStep() const { return std::numeric_limits<Real>::infinity(); }
   // What sets stableTimeStep() now; a look over every particle, for messages, not for each step.
+  // Across MPI ranks every rank calls it at once, each getting the particle of all ranks.
   virtual StepLimit stepLimit() const { return {stableTimeStep()}; }
 
   // The wall time of the steps so far, and of the stages a solver times within them.

@@ -162,6 +162,15 @@ class SlabDecomposition {
     values.pop_back();
     return sum;
   }
+  // Every rank's value of a plain type, in rank order, on every rank.
+  template <class V>
+  std::vector<V> gatherEach(const V& mine) const {
+    if (!distributed()) return {mine};
+    std::vector<V> all;
+    for (const std::string& bytes : world_.allGather(asBytes(std::vector<V>{mine})))
+      all.push_back(fromBytes<V>(bytes)[0]);
+    return all;
+  }
   // Each rank's values, every rank getting the largest.
   std::vector<double> maxOverRanks(std::vector<double> values) {
     if (!distributed()) return values;

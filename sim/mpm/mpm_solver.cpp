@@ -749,7 +749,16 @@ StepLimit MpmSolver<D, T>::stepLimit() const {
     limit.plastic_j = particles_.J_P[p];
     limit.hardening = particles_.lame[p].mu / material_.mu0();
   }
-  return limit;
+  // Across ranks, the particle of the largest signal speed of all (the first rank's of equals).
+  struct Candidate {
+    Real signal;
+    StepLimit limit;
+  };
+  const std::vector<Candidate> ranks = slabs_.gatherEach(Candidate{largest, limit});
+  return std::max_element(
+             ranks.begin(), ranks.end(),
+             [](const Candidate& a, const Candidate& b) { return a.signal < b.signal; })
+      ->limit;
 }
 
 template <int D, class T>

@@ -1,10 +1,12 @@
 """Loads a snowsim run into Blender (3.4 or later) as one animated object.
 
     blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb]
-    blender -b --python scripts/blender_load_run.py --python-expr
-        "import bpy; bpy.ops.wm.save_as_mainfile(filepath='run.blend')" -- RUN_DIR --vdb
+    blender -b --python-exit-code 1 --python scripts/blender_load_run.py --python-expr
+        "import bpy, os; bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath('run.blend'))"
+        -- RUN_DIR --vdb
 
-(the second, on one line, without a display: the loaded run saved to run.blend)
+(the second, on one line, without a display: the loaded run saved to run.blend; a run that
+cannot be loaded ends Blender with exit code 1 and saves nothing)
 
 or, in Blender's Text Editor, set RUN_DIR below and press Run Script.
 
@@ -19,15 +21,20 @@ from run.json. The vertices carry these mesh attributes (point domain), in the o
   mass       float, kg
   pscale     float, the particle's radius in m (Houdini's name)
   id         int, the particle's index at creation
-A Geometry Nodes "Mesh to Points" with Radius = Named Attribute "pscale" turns them into
-renderable spheres. snowsim's y-up frames get the object turned +90 degrees about x, so the snow
+A Geometry Nodes modifier, `snowsim_points` ("Mesh to Points" with Radius = Named Attribute
+"pscale"), draws them as points, which Cycles renders as spheres. snowsim's y-up frames get the object turned +90 degrees about x, so the snow
 stands on Blender's z-up ground; frames written with --z-up need no turn.
 
 With --vdb, the run's frame_NNNNN.vdb files (snowsim run --vdb) become a volume object,
 `snowsim_volume`, with the grids `density` and `velocity`, turned the same way.
 
-When the handler runs in a saved .blend file opened later, run this script again to re-register it
-(Blender does not store Python handlers in files).
+The run's colliders (colliders.json: boxes, spheres, planes, drums and meshes, posed at every
+frame) become objects under an empty, `snowsim_colliders`, turned the same way, keyframed frame by
+frame. Loaded into Blender's unsaved startup scene, the default cube goes and the camera is
+aimed at the snow. Loading the same run again updates its objects rather than adding more.
+
+A saved .blend file opened later needs the frame handler again (Blender does not store Python
+handlers in files): run this script with no run directory, which registers it and loads nothing.
 """
 
 import json
@@ -147,65 +154,252 @@ def turn_to_z_up(obj, up):
     obj.rotation_euler = (math.pi / 2, 0, 0) if up == "y" else (0, 0, 0)
 
 
-def load_particles(run_dir, scene):
-    files = frame_files(run_dir, "ply")
-    if not files:
-        raise ValueError(run_dir + ": no frame_NNNNN.ply files (was the run made with --no-ply?)")
+def fail(message):
+    """Ends the script with one line and exit code 1 (Blender exits too: nothing is saved)."""
+    print("blender_load_run.py: " + message, file=sys.stderr)
+    raise SystemExit(1)
+
+
+def object_of_run(name, run_dir, kind):
+    """The object `name` loaded from run_dir before, if any (so that loading again updates it)."""
+    for obj in bpy.data.objects:
+        if obj.get("snowsim_run") == run_dir and obj.name.startswith(name) and obj.type == kind:
+            return obj
+    return None
+
+
+def load_particles(run_dir, scene, files):
     first = next(iter(files.values()))
-    mesh = bpy.data.meshes.new("snowsim_particles")
-    obj = bpy.data.objects.new("snowsim_particles", mesh)
-    scene.collection.objects.link(obj)
-    obj["snowsim_run"] = run_dir
+    obj = object_of_run("snowsim_particles", run_dir, "MESH")
+    if obj is None:
+        obj = bpy.data.objects.new("snowsim_particles", bpy.data.meshes.new("snowsim_particles"))
+        scene.collection.objects.link(obj)
+        obj["snowsim_run"] = run_dir
     turn_to_z_up(obj, read_ply(first)[1])
     show_frame(obj, first)
-    return obj, files
+    if "snowsim_points" not in obj.modifiers:
+        modifier = obj.modifiers.new("snowsim_points", "NODES")
+        modifier.node_group = points_node_group()
+    return obj
 
 
-def load_volume(run_dir, scene, up):
-    files = frame_files(run_dir, "vdb")
-    if not files:
-        raise ValueError(run_dir + ": no frame_NNNNN.vdb files (run snowsim with --vdb)")
+def points_node_group():
+    """Geometry Nodes that draw each vertex as a point of radius pscale (Cycles renders spheres)."""
+    group = bpy.data.node_groups.get("snowsim_points")
+    if group:
+        return group
+    group = bpy.data.node_groups.new("snowsim_points", "GeometryNodeTree")
+    group.inputs.new("NodeSocketGeometry", "Geometry")
+    group.outputs.new("NodeSocketGeometry", "Geometry")
+    nodes, links = group.nodes, group.links
+    given, result = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    to_points = nodes.new("GeometryNodeMeshToPoints")
+    radius = nodes.new("GeometryNodeInputNamedAttribute")
+    radius.data_type = "FLOAT"
+    radius.inputs["Name"].default_value = "pscale"
+    links.new(given.outputs["Geometry"], to_points.inputs["Mesh"])
+    # The node has an output per data type, of which the float one is enabled.
+    value = next(o for o in radius.outputs if o.enabled and o.type == "VALUE")
+    links.new(value, to_points.inputs["Radius"])
+    links.new(to_points.outputs["Points"], result.inputs["Geometry"])
+    return group
+
+
+def load_volume(run_dir, scene, files, up):
     first_frame, first = next(iter(files.items()))
-    volume = bpy.data.volumes.new("snowsim_volume")
+    obj = object_of_run("snowsim_volume", run_dir, "VOLUME")
+    if obj is None:
+        obj = bpy.data.objects.new("snowsim_volume", bpy.data.volumes.new("snowsim_volume"))
+        scene.collection.objects.link(obj)
+        obj["snowsim_run"] = run_dir
+    volume = obj.data
     volume.filepath = first
     volume.is_sequence = len(files) > 1
     # Blender reads file number (frame - frame_start + 1 + frame_offset): file k at frame k.
     volume.frame_start = first_frame
     volume.frame_offset = first_frame - 1
     volume.frame_duration = len(files)
-    obj = bpy.data.objects.new("snowsim_volume", volume)
-    scene.collection.objects.link(obj)
     turn_to_z_up(obj, up)
     return obj
 
 
+def collider_mesh(collider, name):
+    """A mesh of the collider's shape in its local frame, or None for a shape not drawn."""
+    import bmesh
+    shape, mesh = collider["shape"], bpy.data.meshes.new(name)
+    b = bmesh.new()
+    if shape == "box":
+        bmesh.ops.create_cube(b, size=1.0)
+        bmesh.ops.scale(b, vec=collider["size"], verts=b.verts)
+    elif shape == "sphere":
+        bmesh.ops.create_uvsphere(b, u_segments=48, v_segments=24, radius=collider["radius"])
+    elif shape == "drum":  # a hollow cylinder about local z: its wall, open at both ends
+        bmesh.ops.create_cone(b, segments=64, radius1=collider["radius"],
+                              radius2=collider["radius"], depth=collider["size"][2],
+                              cap_ends=False)
+    elif shape == "plane":  # a square of 4 m through the point, facing along the normal
+        normal = collider["normal"]
+        bmesh.ops.create_grid(b, x_segments=1, y_segments=1, size=2.0)
+        from mathutils import Vector
+        turn = Vector((0, 0, 1)).rotation_difference(Vector(normal))
+        bmesh.ops.rotate(b, verts=b.verts, cent=(0, 0, 0), matrix=turn.to_matrix())
+    else:
+        b.free()
+        bpy.data.meshes.remove(mesh)
+        return None
+    b.to_mesh(mesh)
+    b.free()
+    return mesh
+
+
+def load_colliders(run_dir, scene, up):
+    """colliders.json's colliders, keyframed at each frame, under one empty turned like the snow;
+    returns the shapes it could not draw."""
+    path = os.path.join(run_dir, "colliders.json")
+    if not os.path.exists(path):
+        return []
+    with open(path) as f:
+        frames = json.load(f)["frames"]
+    parent = object_of_run("snowsim_colliders", run_dir, "EMPTY")
+    if parent is None:
+        parent = bpy.data.objects.new("snowsim_colliders", None)
+        scene.collection.objects.link(parent)
+        parent["snowsim_run"] = run_dir
+    turn_to_z_up(parent, up)
+    skipped = []
+    for i, collider in enumerate(frames[0]["colliders"] if frames else []):
+        name = "snowsim_collider_%d" % i
+        obj = next((c for c in parent.children if c.name.startswith(name)), None)
+        if obj is None:
+            if collider["shape"] == "mesh":
+                obj = import_mesh(collider, name)
+            else:
+                mesh = collider_mesh(collider, name)
+                obj = bpy.data.objects.new(name, mesh) if mesh else None
+                if obj:
+                    scene.collection.objects.link(obj)
+            if obj is None:
+                skipped.append(collider["shape"])
+                continue
+            obj.parent = parent
+        obj.rotation_mode = "QUATERNION"
+        obj.animation_data_clear()
+        for frame in frames:
+            pose = frame["colliders"][i]
+            obj.location = pose["position"]
+            obj.rotation_quaternion = pose["rotation"]
+            obj.keyframe_insert("location", frame=frame["frame"])
+            obj.keyframe_insert("rotation_quaternion", frame=frame["frame"])
+    return skipped
+
+
+def import_mesh(collider, name):
+    """A mesh collider's file (OBJ, STL or PLY) with its coordinates as they are (snowsim reads
+    them so), scaled as the scene scales it; None if Blender cannot import it."""
+    path = collider["mesh"]
+    importers = {".obj": lambda: bpy.ops.wm.obj_import(filepath=path, forward_axis="Y",
+                                                       up_axis="Z"),
+                 ".stl": lambda: bpy.ops.import_mesh.stl(filepath=path, axis_forward="Y",
+                                                         axis_up="Z"),
+                 ".ply": lambda: bpy.ops.import_mesh.ply(filepath=path)}
+    importer = importers.get(os.path.splitext(path)[1].lower())
+    if importer is None or not os.path.exists(path):
+        return None
+    importer()
+    obj = bpy.context.selected_objects[0]
+    obj.name = name
+    obj.rotation_euler = (0, 0, 0)
+    obj.scale = [collider.get("scale", 1.0)] * 3
+    return obj
+
+
+def frame_startup_scene(scene, particles, last_frame):
+    """In Blender's unsaved startup scene: the default cube goes, the camera looks at the snow of
+    the first frame (in the mesh now) and of the last."""
+    if bpy.data.filepath:
+        return
+    cube = bpy.data.objects.get("Cube")
+    if cube and cube.type == "MESH" and len(cube.data.vertices) == 8:
+        bpy.data.objects.remove(cube)
+    camera = scene.camera
+    if camera is None or not len(particles.data.vertices):
+        return
+    from mathutils import Vector
+    bpy.context.view_layer.update()
+    first = np.empty(3 * len(particles.data.vertices), np.float32)
+    particles.data.vertices.foreach_get("co", first)
+    last, _ = read_ply(last_frame)
+    local = np.vstack([first.reshape(-1, 3), np.column_stack([last["x"], last["y"], last["z"]])])
+    world = local @ np.array(particles.matrix_world.to_3x3()).T
+    low = Vector(world.min(axis=0)) + particles.matrix_world.translation
+    high = Vector(world.max(axis=0)) + particles.matrix_world.translation
+    centre, reach = (low + high) / 2, max((high - low).length / 2, 0.01)
+    direction = Vector((0.55, -1.0, 0.45)).normalized()
+    distance = 2.2 * reach / math.tan(camera.data.angle / 2)
+    camera.location = centre + distance * direction
+    camera.rotation_mode = "QUATERNION"
+    camera.rotation_quaternion = (-direction).to_track_quat("-Z", "Y")
+    camera.data.clip_start = distance / 1000
+    camera.data.clip_end = distance * 100
+
+
 def load_run(run_dir, with_volume=False):
     run_dir = os.path.abspath(run_dir)
+    if not os.path.isdir(run_dir):
+        fail(run_dir + ": no such directory (the run's -o)")
+    files = frame_files(run_dir, "ply")
+    if not files:
+        fail(run_dir + ": no frame_NNNNN.ply files (was the run made with --no-ply?)")
+    volumes = frame_files(run_dir, "vdb") if with_volume else {}
+    if with_volume and not volumes:
+        fail(run_dir + ": no frame_NNNNN.vdb files (run snowsim with --vdb)")
+    # The frame rate from run.json; a run killed before it wrote one: from the frames' times.
+    fps = None
+    run_json = os.path.join(run_dir, "run.json")
+    if os.path.exists(run_json):
+        with open(run_json) as f:
+            fps = float(json.load(f)["fps"])
+    else:
+        fps = frame_rate_of(list(files.values()))
     scene = bpy.context.scene
-    with open(os.path.join(run_dir, "run.json")) as f:
-        run = json.load(f)
-    particles, files = load_particles(run_dir, scene)
+    particles = load_particles(run_dir, scene, files)
     # The frame rate as an integer over a base, as Blender keeps it (50 fps: 50 / 1).
-    fps = float(run["fps"])
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
     scene.frame_start = next(iter(files))
     scene.frame_end = next(reversed(files))
+    up = read_ply(next(iter(files.values())))[1]
     if with_volume:
-        load_volume(run_dir, scene, read_ply(next(iter(files.values())))[1])
-    # Colliders: run.json's "colliders" hold the scene's colliders at t = 0; a per-frame collider
-    # transforms file, once snowsim writes one, is the place to animate them from.
+        load_volume(run_dir, scene, volumes, up)
+    for shape in load_colliders(run_dir, scene, up):
+        print("blender_load_run.py: a %s collider is not drawn" % shape, file=sys.stderr)
     register_handler()
     scene.frame_set(scene.frame_start)
+    frame_startup_scene(scene, particles, next(reversed(files.values())))
     return particles
+
+
+def frame_rate_of(paths):
+    """Frames per second from the `comment snowsim time` of the first two frames (else 24)."""
+    times = []
+    for path in paths[:2]:
+        with open(path, "rb") as f:
+            for line in f:
+                words = line.split()
+                if words[:3] == [b"comment", b"snowsim", b"time"]:
+                    times.append(float(words[3]))
+                if words[:1] == [b"end_header"]:
+                    break
+    return 1 / (times[1] - times[0]) if len(times) == 2 and times[1] > times[0] else 24.0
 
 
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     paths = [a for a in argv if not a.startswith("--")]
     run_dir = paths[0] if paths else RUN_DIR
-    if not run_dir:
-        raise SystemExit("usage: blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb]")
+    if not run_dir:  # a saved file opened again: its objects need the handler, nothing more
+        register_handler()
+        return
     load_run(run_dir, with_volume="--vdb" in argv)
 
 

@@ -31,6 +31,15 @@ report = {
 }
 particles = bpy.data.objects["snowsim_particles"]
 report["particles_rotation"] = list(particles.rotation_euler)
+report["particles_modifiers"] = [m.name for m in particles.modifiers]
+report["points_radius"] = [n.inputs["Name"].default_value
+                           for m in particles.modifiers if m.type == "NODES"
+                           for n in m.node_group.nodes if n.type == "INPUT_ATTRIBUTE"]
+report["colliders"] = {
+    o.name: {"location": list(o.matrix_world.translation), "dimensions": list(o.dimensions),
+             "keyframes": len(o.animation_data.action.fcurves[0].keyframe_points)
+             if o.animation_data and o.animation_data.action else 0}
+    for o in scene.objects if o.name.startswith("snowsim_collider_")}
 for frame in (scene.frame_start, scene.frame_end):
     scene.frame_set(frame)
     mesh = particles.data

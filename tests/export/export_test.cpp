@@ -107,13 +107,19 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
   const Result r = runCommand("SNOWSIM_BLENDER_REPORT=" + report.string() +
                               " blender -b --factory-startup --python-exit-code 1 --python " +
                               source + "/scripts/blender_load_run.py --python " + source +
+                              "/scripts/blender_load_run.py --python " + source +
                               "/tests/export/blender_check.py -- " + out.string() + " --vdb");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto blender = nlohmann::json::parse(std::ifstream(report));
 
-  int from_run = 0;
-  for (const auto& object : blender["objects"]) from_run += object["from_run"].get<bool>();
-  EXPECT_EQ(from_run, 1) << "one object for all the frames";
+  int meshes = 0;
+  for (const auto& object : blender["objects"]) {
+    meshes += object["from_run"].get<bool>() && object["type"] == "MESH";
+    EXPECT_NE(object["name"], "Cube") << "the startup scene's cube hides the snow";
+  }
+  EXPECT_EQ(meshes, 1) << "one object for all the frames, loaded twice";
+  EXPECT_EQ(blender["particles_modifiers"], nlohmann::json::array({"snowsim_points"}));
+  EXPECT_EQ(blender["points_radius"], nlohmann::json::array({"pscale"}));
   EXPECT_EQ(blender["frame_start"], 0);
   EXPECT_EQ(blender["frame_end"], 3);
   EXPECT_DOUBLE_EQ(blender["fps"].get<double>(), 50);
@@ -159,6 +165,43 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
     EXPECT_NEAR(volume["density_min"][a].get<double>(), lo - 1.5 * h, h) << "axis " << a;
     EXPECT_NEAR(volume["density_max"][a].get<double>(), hi + 1.5 * h, h) << "axis " << a;
   }
+}
+
+// The run's box collider reaches Blender keyframed where colliders.json puts it, turned z up with
+// the snow; a run directory that is not there ends Blender with exit code 1, saving nothing.
+TEST(Export, BlenderDrawsTheCollidersAndRefusesAMissingRun) {
+  if (runCommand("command -v blender").code != 0)
+    GTEST_SKIP() << "blender is not installed (apt-get install blender; scripts/setup.sh does)";
+  const fs::path out = freshDir("export_blender_colliders");
+  const std::string source = SNOWSIM_SOURCE_DIR;
+  ASSERT_EQ(runSnowsim("run " + source + "/scenes/mpm_snowball_wall.json -o " + out.string() +
+                       " --scale 0.5 --no-png --no-mp4 --set time.duration=0.04")
+                .code,
+            0);
+  const fs::path report = out.parent_path() / "blender_colliders.json";
+  const std::string blender = " blender -b --factory-startup --python-exit-code 1 --python " +
+                              source + "/scripts/blender_load_run.py ";
+  const Result r = runCommand("SNOWSIM_BLENDER_REPORT=" + report.string() + blender + "--python " +
+                              source + "/tests/export/blender_check.py -- " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto loaded = nlohmann::json::parse(std::ifstream(report))["colliders"];
+  const auto frames = nlohmann::json::parse(std::ifstream(out / "colliders.json"))["frames"];
+  ASSERT_EQ(loaded.size(), 1u);
+  const auto& box = loaded["snowsim_collider_0"];
+  EXPECT_EQ(box["keyframes"].get<size_t>(), frames.size());
+  const auto& pose = frames.back()["colliders"][0];
+  const double y_up[3] = {pose["position"][0], pose["position"][1], pose["position"][2]};
+  const double z_up[3] = {y_up[0], -y_up[2], y_up[1]};
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(box["location"][a].get<double>(), z_up[a], 1e-6) << a;
+  EXPECT_NEAR(box["dimensions"][1].get<double>(), pose["size"][1].get<double>(), 1e-6);
+
+  const fs::path saved = out.parent_path() / "missing.blend";
+  const Result missing =
+      runCommand(blender + "--python-expr \"import bpy; bpy.ops.wm.save_as_mainfile(filepath='" +
+                 saved.string() + "')\" -- " + (out.string() + "_typo"));
+  EXPECT_EQ(missing.code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("_typo: no such directory"), std::string::npos) << missing.output;
+  EXPECT_FALSE(fs::exists(saved));
 }
 
 // A scene whose only body is the particles of `ply` (a path relative to the scene), written

@@ -361,6 +361,9 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
                                : StepWatch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());
+  if (world.ranks() > 1)
+    progress.note(scene.name + ": split across " + std::to_string(world.ranks()) +
+                  " MPI ranks, rank 0 writing the output");
   int written = first_frame;
   // The run's own state beside the solver's; next_frame: the first frame not yet written.
   CheckpointCadence cadence(
@@ -477,9 +480,13 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                         colliderFramesJson(scene, written).dump(1) + "\n");
   if (writes) writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (stop_signal)
-    throw Interrupted(stop_signal, "interrupted after " + std::to_string(written) + " of " +
-                                       std::to_string(frames + 1) +
-                                       " frames; what was written is complete");
+    throw Interrupted(stop_signal,
+                      "interrupted after " + std::to_string(written) + " of " +
+                          std::to_string(frames + 1) +
+                          " frames; what was written is complete; " +
+                          (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " "
+                                             : std::string()) +
+                          "snowsim resume " + options.out + " continues it");
 }
 
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene

@@ -316,11 +316,15 @@ TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
   std::erase(args, std::string("--no-mp4"));
   args.insert(args.end(), {"--no-png", "--no-ply", "--set", "time.duration=1"});
-  const pid_t child = startSnowsim(args);
+  const fs::path log = out.parent_path() / "video_only.log";
+  const pid_t child = startSnowsim(args, log.string());
   ASSERT_TRUE(waitFor(out / "checkpoint.snowsim"));
   const int status = finish(child, SIGTERM);
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before it was stopped";
+  const std::string stopped = bytesOf(log);
+  EXPECT_NE(stopped.find("snowsim resume " + out.string() + " continues it"), std::string::npos)
+      << stopped;
   const std::string stopped_video = bytesOf(out / "mpm_snowball_wall.mp4");
   const auto refused = runSnowsim("resume " + out.string());
   EXPECT_EQ(refused.code, 2) << refused.output;

@@ -38,14 +38,15 @@ inline Result runSnowsim(const std::string& args) {
 }
 
 // Starts `snowsim ARGS...` in a child process, its stderr discarded; a test signals and reaps it.
-inline pid_t startSnowsim(std::vector<std::string> args) {
+// Starts snowsim with `args`, its stderr into `log`.
+inline pid_t startSnowsim(std::vector<std::string> args, const std::string& log = "/dev/null") {
   args.insert(args.begin(), SNOWSIM_BINARY);
   std::vector<char*> argv;
   for (std::string& arg : args) argv.push_back(arg.data());
   argv.push_back(nullptr);
   const pid_t child = fork();
   if (child == 0) {
-    freopen("/dev/null", "w", stderr);
+    freopen(log.c_str(), "w", stderr);
     execv(argv[0], argv.data());
     _exit(127);
   }

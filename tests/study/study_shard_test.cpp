@@ -154,12 +154,20 @@ TEST(StudyShards, SlurmScriptSubmitsAnArrayAndADependentMerge) {
                         << "\necho 4242\n";
   std::filesystem::permissions(sbatch, std::filesystem::perms::owner_all);
   const std::string script = std::string(SNOWSIM_SOURCE_DIR) + "/scripts/slurm_study.sh";
-  auto result = runCommand("PATH=" + (dir / "bin").string() + ":$PATH SNOWSIM=/opt/snowsim " +
-                           script + " 3 " + (dir / "out.csv").string() + " --preset full");
+  // Without sbatch on the PATH: a message, and nothing made.
+  auto result = runCommand("PATH=/usr/bin:/bin " + script + " 3 " + (dir / "none.csv").string());
+  EXPECT_EQ(result.code, 2) << result.output;
+  EXPECT_NE(result.output.find("sbatch not found"), std::string::npos) << result.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "none.shards"));
+  result = runCommand("PATH=" + (dir / "bin").string() +
+                      ":$PATH SNOWSIM=/opt/snowsim SBATCH_ARGS='--partition=short --time=1:00' " +
+                      script + " 3 " + (dir / "out.csv").string() + " --preset full");
   ASSERT_EQ(result.code, 0) << result.output;
   const auto submitted = lines(fileText(dir / "sbatch.log"));
   ASSERT_EQ(submitted.size(), 2u);
   EXPECT_NE(submitted[0].find("--array=1-3 " + script), std::string::npos) << submitted[0];
+  for (const std::string& line : submitted)
+    EXPECT_EQ(line.find("--partition=short --time=1:00 --parsable"), 0u) << line;
   EXPECT_NE(submitted[1].find("--dependency=afterok:4242"), std::string::npos) << submitted[1];
   const std::string shards = (dir / "out.shards").string();
   EXPECT_NE(submitted[1].find("/opt/snowsim study --preset full --merge " + shards +

@@ -482,8 +482,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   if (stop_signal)
     throw Interrupted(stop_signal,
                       "interrupted after " + std::to_string(written) + " of " +
-                          std::to_string(frames + 1) +
-                          " frames; what was written is complete; " +
+                          std::to_string(frames + 1) + " frames; what was written is complete; " +
                           (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " "
                                              : std::string()) +
                           "snowsim resume " + options.out + " continues it");

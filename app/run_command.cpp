@@ -283,6 +283,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
             : (world.ranks() > 1 ? sceneOnEveryRank(options, world) : resolvedScene(options));
   const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   if (saved) checkRanksOf(*saved, world.ranks());
+  refuseWhatIsNotDistributed(scene, world.ranks());
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&

@@ -10,16 +10,26 @@
 
 namespace snowsim {
 
+void refuseWhatIsNotDistributed(const Scene& scene, int ranks) {
+  if (ranks <= 1) return;
+  if (scene.solver != SolverType::Mpm)
+    throw InputError(scene.file +
+                     ": the report's method runs in one process; across MPI ranks only "
+                     "\"solver\": \"mpm\" is distributed");
+  // MpmSolver's semiImplicit(): the semi-implicit integrator runs in double only.
+  if (scene.mpm.integrator == MpmIntegrator::SemiImplicit &&
+      scene.mpm.precision == MpmPrecision::Double)
+    throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
+                     "across MPI ranks only \"explicit\" is distributed");
+}
+
 namespace {
 
 template <int D>
 class SimulationOf final : public Simulation {
  public:
   SimulationOf(const Scene& scene, int threads, RankExchange& world) : scene_(scene) {
-    if (scene.solver != SolverType::Mpm && world.ranks() > 1)
-      throw InputError(scene.file +
-                       ": the report's method runs in one process; across MPI ranks only "
-                       "\"solver\": \"mpm\" is distributed");
+    refuseWhatIsNotDistributed(scene, world.ranks());
     if (scene.solver == SolverType::Mpm && scene.mpm.precision == MpmPrecision::Float)
       solver_ =
           std::make_unique<MpmSolver<D, float>>(scene, sampleBodies<D>(scene), threads, world);

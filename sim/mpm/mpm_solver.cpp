@@ -63,9 +63,6 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
     throw InputError(scene.file +
                      ": material.viscosity runs only mpm.integrator \"explicit\" (the "
                      "semi-implicit solve has no damper in its stress differential)");
-  if (slabs_.distributed() && semiImplicit())
-    throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
-                     "across MPI ranks only \"explicit\" is distributed");
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);

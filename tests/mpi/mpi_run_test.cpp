@@ -155,7 +155,7 @@ TEST(Mpi, RefusesWhatIsNotDistributed) {
   EXPECT_EQ(implicit.code, 2);
   EXPECT_NE(implicit.output.find("only \"explicit\" is distributed"), std::string::npos)
       << implicit.output;
-  EXPECT_FALSE(fs::exists(out / "run.json"));
+  EXPECT_FALSE(fs::exists(out)) << "refused after making the output directory";
 }
 
 // A failure rank 0 meets alone (frame 2's PLY goes to /dev/full) ends every rank at once with the

@@ -19,5 +19,7 @@ void addClumpsCommand(CLI::App& app);
 // Prints a command's error on stderr and returns its exit code: 2 bad input, 3 the simulation
 // failed, 4 anything else.
 int reportFailure(const std::exception& e);
+// The exit code reportFailure gives, without the message.
+int exitCodeOf(const std::exception& e);
 
 }  // namespace snowsim

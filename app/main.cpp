@@ -1,5 +1,6 @@
 // snowsim: simulates snow and renders it off-screen.
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <string>
 #include <utility>
@@ -45,21 +46,33 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // A run across MPI ranks: every rank parses the same command line, and an error that reaches
+  // here is one every rank met alike (one a rank meets alone ends every rank through MPI_Abort):
+  // rank 0 alone says so. (Study shards under mpirun are independent runs: each speaks.)
+  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+  const bool distributed_run =
+      argc > 1 && (std::string(argv[1]) == "run" || std::string(argv[1]) == "resume");
+  const bool quiet = distributed_run && rank && std::string(rank) != "0";
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
+    const int code = quiet && e.get_exit_code() != 0 ? e.get_exit_code() : app.exit(e);
     return code == 0 ? 0 : 2;
   } catch (const snowsim::Interrupted& e) {
-    std::fprintf(stderr, "snowsim: %s\n", e.what());
+    if (!quiet) std::fprintf(stderr, "snowsim: %s\n", e.what());
     return 128 + e.signal;
   } catch (const std::exception& e) {
+    if (quiet) return snowsim::exitCodeOf(e);
     return snowsim::reportFailure(e);
   }
   return 0;
 }
 
 namespace snowsim {
+
+int exitCodeOf(const std::exception& e) {
+  return dynamic_cast<const InputError*>(&e) ? 2 : dynamic_cast<const SimulationError*>(&e) ? 3 : 4;
+}
 
 int reportFailure(const std::exception& e) {
   if (dynamic_cast<const InputError*>(&e)) {

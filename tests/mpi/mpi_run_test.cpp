@@ -156,6 +156,13 @@ TEST(Mpi, RefusesWhatIsNotDistributed) {
   EXPECT_NE(implicit.output.find("only \"explicit\" is distributed"), std::string::npos)
       << implicit.output;
   EXPECT_FALSE(fs::exists(out)) << "refused after making the output directory";
+  // Bad input every rank meets alike is told once, by rank 0.
+  const auto missing = runCommand(mpirun(2) + " run " + kScene + ".missing -o " + out.string());
+  EXPECT_EQ(missing.code, 2);
+  const size_t told = missing.output.find("File does not exist");
+  ASSERT_NE(told, std::string::npos) << missing.output;
+  EXPECT_EQ(missing.output.find("File does not exist", told + 1), std::string::npos)
+      << missing.output;
 }
 
 // A failure rank 0 meets alone (frame 2's PLY goes to /dev/full) ends every rank at once with the

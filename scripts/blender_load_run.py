@@ -1,4 +1,4 @@
-"""Loads a snowsim run into Blender (3.4 or later) as one animated object.
+"""Loads a snowsim run into Blender (3.4 or later; tested with Debian's 3.4) as one animated object.
 
     blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb]
     blender -b --python-exit-code 1 --python scripts/blender_load_run.py --python-expr
@@ -22,7 +22,8 @@ from run.json. The vertices carry these mesh attributes (point domain), in the o
   pscale     float, the particle's radius in m (Houdini's name)
   id         int, the particle's index at creation
 A Geometry Nodes modifier, `snowsim_points` ("Mesh to Points" with Radius = Named Attribute
-"pscale"), draws them as points, which Cycles renders as spheres. snowsim's y-up frames get the object turned +90 degrees about x, so the snow
+"pscale"), draws them as points, which Cycles renders as spheres (Blender 3's EEVEE draws no
+points). snowsim's y-up frames get the object turned +90 degrees about x, so the snow
 stands on Blender's z-up ground; frames written with --z-up need no turn.
 
 With --vdb, the run's frame_NNNNN.vdb files (snowsim run --vdb) become a volume object,
@@ -155,7 +156,10 @@ def turn_to_z_up(obj, up):
 
 
 def fail(message):
-    """Ends the script with one line and exit code 1 (Blender exits too: nothing is saved)."""
+    """Without a display: one line and exit code 1, Blender ending before it saves anything. In
+    Blender's window: an error Blender reports, the window left open."""
+    if not bpy.app.background:
+        raise RuntimeError("blender_load_run.py: " + message)
     print("blender_load_run.py: " + message, file=sys.stderr)
     raise SystemExit(1)
 
@@ -189,8 +193,12 @@ def points_node_group():
     if group:
         return group
     group = bpy.data.node_groups.new("snowsim_points", "GeometryNodeTree")
-    group.inputs.new("NodeSocketGeometry", "Geometry")
-    group.outputs.new("NodeSocketGeometry", "Geometry")
+    if hasattr(group, "interface"):  # Blender 4.0 on
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        group.inputs.new("NodeSocketGeometry", "Geometry")
+        group.outputs.new("NodeSocketGeometry", "Geometry")
     nodes, links = group.nodes, group.links
     given, result = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
     to_points = nodes.new("GeometryNodeMeshToPoints")
@@ -269,7 +277,7 @@ def load_colliders(run_dir, scene, up):
     skipped = []
     for i, collider in enumerate(frames[0]["colliders"] if frames else []):
         name = "snowsim_collider_%d" % i
-        obj = next((c for c in parent.children if c.name.startswith(name)), None)
+        obj = next((c for c in parent.children if c.get("snowsim_collider") == i), None)
         if obj is None:
             if collider["shape"] == "mesh":
                 obj = import_mesh(collider, name)
@@ -282,6 +290,7 @@ def load_colliders(run_dir, scene, up):
                 skipped.append(collider["shape"])
                 continue
             obj.parent = parent
+            obj["snowsim_collider"] = i
         obj.rotation_mode = "QUATERNION"
         obj.animation_data_clear()
         for frame in frames:
@@ -297,16 +306,27 @@ def import_mesh(collider, name):
     """A mesh collider's file (OBJ, STL or PLY) with its coordinates as they are (snowsim reads
     them so), scaled as the scene scales it; None if Blender cannot import it."""
     path = collider["mesh"]
-    importers = {".obj": lambda: bpy.ops.wm.obj_import(filepath=path, forward_axis="Y",
-                                                       up_axis="Z"),
-                 ".stl": lambda: bpy.ops.import_mesh.stl(filepath=path, axis_forward="Y",
-                                                         axis_up="Z"),
-                 ".ply": lambda: bpy.ops.import_mesh.ply(filepath=path)}
+    ops = bpy.ops
+    # Blender 4 replaced the STL and PLY importers by wm.stl_import and wm.ply_import.
+    importers = {
+        ".obj": lambda: ops.wm.obj_import(filepath=path, forward_axis="Y", up_axis="Z"),
+        ".stl": (lambda: ops.wm.stl_import(filepath=path, forward_axis="Y", up_axis="Z"))
+        if hasattr(ops.wm, "stl_import")
+        else (lambda: ops.import_mesh.stl(filepath=path, axis_forward="Y", axis_up="Z")),
+        ".ply": (lambda: ops.wm.ply_import(filepath=path, forward_axis="Y", up_axis="Z"))
+        if hasattr(ops.wm, "ply_import") else (lambda: ops.import_mesh.ply(filepath=path)),
+    }
     importer = importers.get(os.path.splitext(path)[1].lower())
     if importer is None or not os.path.exists(path):
         return None
     importer()
-    obj = bpy.context.selected_objects[0]
+    parts = list(bpy.context.selected_objects)
+    if not parts:
+        return None
+    obj = parts[0]
+    if len(parts) > 1:  # a file of several objects: one collider
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.object.join()
     obj.name = name
     obj.rotation_euler = (0, 0, 0)
     obj.scale = [collider.get("scale", 1.0)] * 3
@@ -318,6 +338,7 @@ def frame_startup_scene(scene, particles, last_frame):
     the first frame (in the mesh now) and of the last."""
     if bpy.data.filepath:
         return
+    scene.render.engine = "CYCLES"  # EEVEE of Blender 3 draws no points
     cube = bpy.data.objects.get("Cube")
     if cube and cube.type == "MESH" and len(cube.data.vertices) == 8:
         bpy.data.objects.remove(cube)
@@ -354,7 +375,6 @@ def load_run(run_dir, with_volume=False):
     if with_volume and not volumes:
         fail(run_dir + ": no frame_NNNNN.vdb files (run snowsim with --vdb)")
     # The frame rate from run.json; a run killed before it wrote one: from the frames' times.
-    fps = None
     run_json = os.path.join(run_dir, "run.json")
     if os.path.exists(run_json):
         with open(run_json) as f:

@@ -116,6 +116,8 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
   for (const auto& object : blender["objects"]) {
     meshes += object["from_run"].get<bool>() && object["type"] == "MESH";
     EXPECT_NE(object["name"], "Cube") << "the startup scene's cube hides the snow";
+    EXPECT_EQ(object["name"].get<std::string>().find(".00"), std::string::npos)
+        << object["name"] << ": loaded twice, made twice";
   }
   EXPECT_EQ(meshes, 1) << "one object for all the frames, loaded twice";
   EXPECT_EQ(blender["particles_modifiers"], nlohmann::json::array({"snowsim_points"}));

@@ -23,6 +23,6 @@ fi
 . "$(dirname "$0")/study_launch.sh"
 read_launch_arguments "$@"
 # shellcheck disable=SC2086  # MPIRUN_ARGS is a list of options
-mpirun ${MPIRUN_ARGS:-} -np "$count" "$0" "$shards" "${study_args[@]}"
+mpirun ${MPIRUN_ARGS:-} -np "$count" "$0" "$shards" ${study_args[@]+"${study_args[@]}"}
 set_merge_command
 "${merge_command[@]}"

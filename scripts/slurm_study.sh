@@ -8,7 +8,7 @@
 # and the shards resume (rows already measured are skipped). SNOWSIM: the binary (default
 # build/app/snowsim, on a file system the nodes share). SBATCH_ARGS: options for both sbatch
 # calls, e.g. "--partition=short --account=snow --time=02:00:00" (sbatch's own SBATCH_PARTITION,
-# SBATCH_ACCOUNT and SBATCH_TIMELIMIT work too).
+# SBATCH_ACCOUNT and SBATCH_TIMELIMIT work too). SBATCH: the sbatch command (default: sbatch).
 #SBATCH --job-name=snowsim-study
 #SBATCH --cpus-per-task=2
 #SBATCH --array=1-8
@@ -26,7 +26,8 @@ if [ -n "${SLURM_ARRAY_TASK_ID:-}" ]; then  # one array task: one shard
   exec "$snowsim" study --shard "$task/$count" -o "$shards/shard-$task-of-$count.csv" "$@"
 fi
 
-if ! command -v sbatch > /dev/null; then
+sbatch=${SBATCH:-sbatch}
+if ! command -v "$sbatch" > /dev/null; then
   echo "$0: sbatch not found: run it on a Slurm login node (scripts/mpirun_study.sh runs the" \
     "shards under mpirun)" >&2
   exit 2
@@ -34,15 +35,17 @@ fi
 # shellcheck source=scripts/study_launch.sh
 . "$(dirname "$0")/study_launch.sh"
 read_launch_arguments "$@"
-read -r -a sbatch_args <<< "${SBATCH_ARGS:-}"
+read -r -a options <<< "${SBATCH_ARGS:-}"
+# "${a[@]}" of an empty array is an unbound variable under set -u before bash 4.4.
+submit=("$sbatch" ${options[@]+"${options[@]}"})
 # sbatch runs a copy of this script, so the binary goes by its absolute path.
 export SNOWSIM=$snowsim
-array=$(sbatch "${sbatch_args[@]}" --parsable --export=ALL --array="1-$count" "$0" "$shards" \
-  "${study_args[@]}")
+array=$("${submit[@]}" --parsable --export=ALL --array="1-$count" "$0" "$shards" \
+  ${study_args[@]+"${study_args[@]}"})
 array=${array%%;*}  # "jobid;cluster" on federated clusters
 set_merge_command
 quoted=$(printf ' %q' "${merge_command[@]}")
-merge=$(sbatch "${sbatch_args[@]}" --parsable --job-name=snowsim-study-merge \
+merge=$("${submit[@]}" --parsable --job-name=snowsim-study-merge \
   --dependency="afterok:$array" \
   --wrap="${quoted# }")
 echo "submitted shards as job array $array and the merge as job ${merge%%;*}"

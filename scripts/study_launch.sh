@@ -22,5 +22,5 @@ set_merge_command() {
   local files=() shard
   for ((shard = 1; shard <= count; ++shard)); do files+=("$shards/shard-$shard-of-$count.csv"); done
   # shellcheck disable=SC2034  # read by the scripts that source this file
-  merge_command=("$snowsim" study "${study_args[@]}" --merge "${files[@]}" -o "$out")
+  merge_command=("$snowsim" study ${study_args[@]+"${study_args[@]}"} --merge "${files[@]}" -o "$out")
 }

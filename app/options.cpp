@@ -39,12 +39,18 @@ void addThreadsOption(CLI::App& command, int& threads) {
 CLI::Validator zeroOrMore(bool whole) {
   const std::string allowed = whole ? "a whole number, 0 or more" : "a number, 0 or more";
   const auto check = [whole, allowed](std::string& text) -> std::string {
-    double value = -1;
     const char* end = text.data() + text.size();
-    const auto [at, error] = std::from_chars(text.data(), end, value);
-    if (error == std::errc() && at == end && value >= 0 && (!whole || value == std::floor(value)))
-      return "";
-    return "\"" + text + "\" is not allowed; allowed: " + allowed;
+    bool fits = false;
+    if (whole) {  // what an int option reads: digits, within int
+      int value = -1;
+      const auto [at, error] = std::from_chars(text.data(), end, value);
+      fits = error == std::errc() && at == end && value >= 0;
+    } else {
+      double value = -1;
+      const auto [at, error] = std::from_chars(text.data(), end, value);
+      fits = error == std::errc() && at == end && value >= 0 && std::isfinite(value);
+    }
+    return fits ? "" : "\"" + text + "\" is not allowed; allowed: " + allowed;
   };
   return CLI::Validator(check, "0 or more");
 }

@@ -65,7 +65,7 @@ SavedRun loadCheckpoint(const std::string& dir) {
   Checkpoint checkpoint = [&] {
     try {
       return readCheckpoint(saved.file);
-    } catch (const InputError& e) {
+    } catch (const DamagedCheckpoint& e) {
       const std::string previous = saved.file + ".prev";
       if (!fs::exists(previous)) throw;
       throw InputError(std::string(e.what()) + "; the checkpoint before it is " + previous +

@@ -301,12 +301,25 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     return estimateOnly(scene, options.threads, world);
   }
   const std::string video_name = scene.name + ".mp4";
+  const std::string resume_command =
+      (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " " : std::string()) +
+      "snowsim resume " + options.out +
+      (options.render.mp4 && !options.render.png && !options.ply ? " --no-mp4" : "");
   if (saved && options.render.mp4 && !options.render.png && !options.ply)
     throw InputError(saved->file +
                      ": the run writes an MP4 but neither PNG nor PLY frames, from which resume "
-                     "would rebuild the video's first frames; `snowsim resume " +
-                     options.out + " --no-mp4` continues it without the video");
+                     "would rebuild the video's first frames; `" +
+                     resume_command + "` continues it without the video");
   const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
+  if (saved && options.render.mp4)  // the frames the video's start is rebuilt from
+    for (int frame = 0; frame < first_frame; ++frame) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/frame_%05d.%s", frame, options.render.png ? "png" : "ply");
+      if (!std::filesystem::exists(options.out + name))
+        throw InputError(options.out + name + ": missing, and the video's first frames are " +
+                         "rebuilt from it; `" + resume_command +
+                         " --no-mp4` continues the run without the video");
+    }
   std::string refused;
   if (writes) try {
       if (saved)
@@ -481,12 +494,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                         colliderFramesJson(scene, written).dump(1) + "\n");
   if (writes) writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (stop_signal)
-    throw Interrupted(stop_signal,
-                      "interrupted after " + std::to_string(written) + " of " +
-                          std::to_string(frames + 1) + " frames; what was written is complete; " +
-                          (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " "
-                                             : std::string()) +
-                          "snowsim resume " + options.out + " continues it");
+    throw Interrupted(stop_signal, "interrupted after " + std::to_string(written) + " of " +
+                                       std::to_string(frames + 1) +
+                                       " frames; what was written is complete; " + resume_command +
+                                       " continues it");
 }
 
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene

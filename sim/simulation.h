@@ -54,11 +54,6 @@ class Simulation {
 // bounds the solver's threads; 0 takes the OpenMP default (OMP_NUM_THREADS, else every core).
 // world: the MPI ranks one MPM run is split across (worldExchange() under mpirun), each calling
 // this alike.
-// Throws InputError, naming the scene file, when `ranks` > 1 and the scene runs what is not
-// distributed (the report's method, MPM's semi-implicit integrator): a caller checks it before it
-// writes anything, makeSimulation again.
-void refuseWhatIsNotDistributed(const Scene& scene, int ranks);
-
 std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads = 0,
                                            RankExchange& world = oneProcess());
 

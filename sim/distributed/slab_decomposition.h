@@ -15,6 +15,7 @@
 #include <limits>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "sim/core/errors.h"
@@ -52,13 +53,7 @@ class SlabDecomposition {
   const RankTraffic& traffic() const { return traffic_; }
   std::vector<std::string> allGather(std::string_view mine) const { return world_.allGather(mine); }
   // Every rank's traffic, in rank order, on every rank.
-  std::vector<RankTraffic> everyRanksTraffic() const {
-    if (!distributed()) return {traffic_};
-    std::vector<RankTraffic> all;
-    for (const std::string& bytes : world_.allGather(asBytes(std::vector<RankTraffic>{traffic_})))
-      all.push_back(fromBytes<RankTraffic>(bytes)[0]);
-    return all;
-  }
+  std::vector<RankTraffic> everyRanksTraffic() const { return gatherEach(traffic_); }
 
   // particles: the whole scene, alike on every rank; cuts the slabs and keeps this rank's.
   template <class P>
@@ -165,6 +160,7 @@ class SlabDecomposition {
   // Every rank's value of a plain type, in rank order, on every rank.
   template <class V>
   std::vector<V> gatherEach(const V& mine) const {
+    static_assert(std::is_trivially_copyable_v<V>, "sent as its bytes");
     if (!distributed()) return {mine};
     std::vector<V> all;
     for (const std::string& bytes : world_.allGather(asBytes(std::vector<V>{mine})))

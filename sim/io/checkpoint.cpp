@@ -106,6 +106,9 @@ Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
   const auto bad = [&](const std::string& problem) {
     return InputError(file + ": " + problem + "; resume needs an intact checkpoint");
   };
+  const auto damaged = [&](const std::string& problem) {
+    return DamagedCheckpoint(file + ": " + problem + "; resume needs an intact checkpoint");
+  };
   if (bytes.size() < kMagic.size() || bytes.substr(0, kMagic.size()) != kMagic)
     throw bad("not a snowsim checkpoint (no SNOWCKPT at its start)");
   StateReader in(bytes.substr(kMagic.size()), file);
@@ -115,14 +118,14 @@ Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
       throw bad("a checkpoint of format " + std::to_string(format) +
                 "; this snowsim reads format " + std::to_string(kCheckpointFormat));
   } catch (const InputError&) {
-    if (bytes.size() < kMagic.size() + 4) throw bad("truncated (it ends after its magic)");
+    if (bytes.size() < kMagic.size() + 4) throw damaged("truncated (it ends after its magic)");
     throw;
   }
-  if (bytes.size() < kMagic.size() + 8) throw bad("truncated (it ends in its header)");
+  if (bytes.size() < kMagic.size() + 8) throw damaged("truncated (it ends in its header)");
   std::uint32_t stored_crc;
   std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
   if (crc32(bytes.substr(0, bytes.size() - 4)) != stored_crc)
-    throw bad("truncated or corrupted (its CRC-32 does not match its contents)");
+    throw damaged("truncated or corrupted (its CRC-32 does not match its contents)");
   Checkpoint c;
   try {
     in.value(c.header.dimension);

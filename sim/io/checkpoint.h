@@ -135,6 +135,11 @@ std::string encodeCheckpoint(const Checkpoint& checkpoint);
 // anything but a complete, intact checkpoint of this format version; the snowsim version, the
 // scene and the dimension are the caller's to check.
 Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file);
+// What decodeCheckpoint throws for a file cut short or changed (its CRC-32 does not match): the
+// checkpoint before it may still serve.
+struct DamagedCheckpoint : InputError {
+  using InputError::InputError;
+};
 
 // Writes the checkpoint to path.tmp and syncs it, links the earlier checkpoint at path as
 // path.prev, renames path.tmp over path and syncs the directory: a crash at any moment leaves a

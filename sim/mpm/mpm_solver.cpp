@@ -63,6 +63,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
     throw InputError(scene.file +
                      ": material.viscosity runs only mpm.integrator \"explicit\" (the "
                      "semi-implicit solve has no damper in its stress differential)");
+  refuseWhatIsNotDistributed(scene, slabs_.ranks());  // as makeSimulation, for direct callers
   fields_.resize(grid_.nodeCount());
   for (const Body& body : scene.bodies) body_density_.push_back(body.density);
   continuePlasticity(scene);

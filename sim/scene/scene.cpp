@@ -680,4 +680,17 @@ void scaleGrid(Scene& scene, double factor) {
   scene.cell_size /= factor;
 }
 
+void refuseWhatIsNotDistributed(const Scene& scene, int ranks) {
+  if (ranks <= 1) return;
+  if (scene.solver != SolverType::Mpm)
+    throw InputError(scene.file +
+                     ": the report's method runs in one process; across MPI ranks only "
+                     "\"solver\": \"mpm\" is distributed");
+  // MpmSolver's semiImplicit(): the semi-implicit integrator runs in double only.
+  if (scene.mpm.integrator == MpmIntegrator::SemiImplicit &&
+      scene.mpm.precision == MpmPrecision::Double)
+    throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
+                     "across MPI ranks only \"explicit\" is distributed");
+}
+
 }  // namespace snowsim

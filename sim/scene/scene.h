@@ -241,4 +241,9 @@ void refineGrid(Scene& scene, int factor);
 // InputError unless every axis gets a whole number of cells from 1 to 4096.
 void scaleGrid(Scene& scene, double factor);
 
+// Throws InputError, naming the scene file, when `ranks` > 1 and the scene runs what is not
+// distributed (the report's method, MPM's semi-implicit integrator): a caller checks it before it
+// writes anything, the solvers again.
+void refuseWhatIsNotDistributed(const Scene& scene, int ranks);
+
 }  // namespace snowsim

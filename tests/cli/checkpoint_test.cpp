@@ -297,6 +297,15 @@ TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
   const pid_t child = startSnowsim(args);
   ASSERT_TRUE(waitFor(out / frameName(4, "ply")));
   finish(child, SIGKILL);
+  // A frame the video is rebuilt from gone: refused before anything is written.
+  fs::rename(out / frameName(1, "ply"), out / "aside.ply");
+  const auto before = frames(out);
+  const auto refused = runSnowsim("resume " + out.string());
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find(frameName(1, "ply") + ": missing"), std::string::npos)
+      << refused.output;
+  EXPECT_EQ(frames(out), before);
+  fs::rename(out / "aside.ply", out / frameName(1, "ply"));
   const auto resumed = runSnowsim("resume " + out.string());
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   std::vector<std::string> uninterrupted = runArgs(kCases[2], whole, 1);
@@ -315,7 +324,7 @@ TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   const fs::path out = freshDir("video_only");
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
   std::erase(args, std::string("--no-mp4"));
-  args.insert(args.end(), {"--no-png", "--no-ply", "--set", "time.duration=1"});
+  args.insert(args.end(), {"--no-png", "--no-ply", "--set", "time.duration=0.3"});
   const fs::path log = out.parent_path() / "video_only.log";
   const pid_t child = startSnowsim(args, log.string());
   ASSERT_TRUE(waitFor(out / "checkpoint.snowsim"));
@@ -323,7 +332,8 @@ TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before it was stopped";
   const std::string stopped = bytesOf(log);
-  EXPECT_NE(stopped.find("snowsim resume " + out.string() + " continues it"), std::string::npos)
+  EXPECT_NE(stopped.find("snowsim resume " + out.string() + " --no-mp4 continues it"),
+            std::string::npos)
       << stopped;
   const std::string stopped_video = bytesOf(out / "mpm_snowball_wall.mp4");
   const auto refused = runSnowsim("resume " + out.string());
@@ -390,6 +400,8 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
   EXPECT_NE(damaged.output.find("mv " + file.string() + ".prev " + file.string()),
             std::string::npos)
       << damaged.output;
+  std::ofstream(file, std::ios::binary) << other_format;  // not damaged: the one before is alike
+  EXPECT_EQ(runSnowsim("resume " + out.string()).output.find(".prev"), std::string::npos);
   fs::remove(file);
   const auto missing = runSnowsim("resume " + out.string());
   EXPECT_EQ(missing.code, 2);

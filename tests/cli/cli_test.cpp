@@ -131,6 +131,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --mp4-fps 0", "--mp4-fps: 0 is outside");
   expectRejected("run " + scene("snowball_drop") + " --checkpoint-every -1",
                  "--checkpoint-every: \"-1\" is not allowed; allowed: a whole number, 0 or more");
+  expectRejected("run " + scene("snowball_drop") + " --checkpoint-every 1e3",
+                 "--checkpoint-every: \"1e3\" is not allowed; allowed: a whole number, 0 or more");
   expectRejected("run " + scene("snowball_drop") + " --checkpoint-minutes ten",
                  "--checkpoint-minutes: \"ten\" is not allowed; allowed: a number, 0 or more");
   expectRejected("figure " + scene("snowball_drop") + " --times 0.2,5", "--times: 5 is not");

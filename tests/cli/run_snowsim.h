@@ -37,8 +37,8 @@ inline Result runSnowsim(const std::string& args) {
   return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
 }
 
-// Starts `snowsim ARGS...` in a child process, its stderr discarded; a test signals and reaps it.
-// Starts snowsim with `args`, its stderr into `log`.
+// Starts `snowsim ARGS...` in a child process, its stderr into `log` (by default discarded); a
+// test signals and reaps it.
 inline pid_t startSnowsim(std::vector<std::string> args, const std::string& log = "/dev/null") {
   args.insert(args.begin(), SNOWSIM_BINARY);
   std::vector<char*> argv;

@@ -90,6 +90,7 @@ TEST_F(OneRun, RanksAgreeWithOneProcessToRoundOff) {
     // The step's collapse at the wall is blamed on the snow that hardened there, whichever rank
     // holds it: every rank's stiffest particle is weighed, not rank 0's alone.
     ASSERT_TRUE(single.contains("step_collapse"));
+    ASSERT_TRUE(split.contains("step_collapse"));
     const auto& collapse = single["step_collapse"];
     EXPECT_NEAR(split["step_collapse"]["hardening"].get<double>(),
                 collapse["hardening"].get<double>(), 1e-3 * collapse["hardening"].get<double>());

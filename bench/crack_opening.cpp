@@ -200,6 +200,10 @@ void run(const Options& o) {
   prepareOutputDirectory(o.out);
   const int frames = scene.frameCount();
   const int steps_per_frame = std::max(1, int(std::lround(1 / (scene.fps * o.dt))));
+  // First, so that the frames of a run still going (or stopped) show the wall too.
+  if (!scene.colliders.empty())
+    writeFileAtomically(o.out + "/colliders.json",
+                        colliderFramesJson(scene, frames + 1).dump(1) + "\n");
   std::printf("frame,time_s,largest_share,other_chunks_share,single_share\n");
   for (int f = 0; f <= frames; ++f) {
     if (f > 0)
@@ -223,9 +227,6 @@ void run(const Options& o) {
                 c.single_share);
     std::fflush(stdout);
   }
-  if (!scene.colliders.empty())
-    writeFileAtomically(o.out + "/colliders.json",
-                        colliderFramesJson(scene, frames + 1).dump(1) + "\n");
 }
 
 }  // namespace

@@ -402,6 +402,10 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
       << damaged.output;
   std::ofstream(file, std::ios::binary) << other_format;  // not damaged: the one before is alike
   EXPECT_EQ(runSnowsim("resume " + out.string()).output.find(".prev"), std::string::npos);
+  // Following the hint resumes.
+  fs::rename(out / "checkpoint.snowsim.prev", file);
+  const auto from_previous = runSnowsim("resume " + out.string());
+  EXPECT_EQ(from_previous.code, 0) << from_previous.output;
   fs::remove(file);
   const auto missing = runSnowsim("resume " + out.string());
   EXPECT_EQ(missing.code, 2);

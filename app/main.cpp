@@ -75,16 +75,10 @@ int exitCodeOf(const std::exception& e) {
 }
 
 int reportFailure(const std::exception& e) {
-  if (dynamic_cast<const InputError*>(&e)) {
-    std::fprintf(stderr, "snowsim: error: %s\n", e.what());
-    return 2;
-  }
-  if (dynamic_cast<const SimulationError*>(&e)) {
-    std::fprintf(stderr, "snowsim: simulation failed: %s\n", e.what());
-    return 3;
-  }
-  std::fprintf(stderr, "snowsim: internal error: %s\n", e.what());
-  return 4;
+  const int code = exitCodeOf(e);
+  const char* kind = code == 2 ? "error" : code == 3 ? "simulation failed" : "internal error";
+  std::fprintf(stderr, "snowsim: %s: %s\n", kind, e.what());
+  return code;
 }
 
 }  // namespace snowsim

@@ -61,6 +61,13 @@ struct RunOptions {
   std::vector<std::string> args;  // the command line after `run`, which resume parses again
 };
 
+// dir/frame_NNNNN.extension.
+std::string framePath(const std::string& dir, int frame, const std::string& extension) {
+  char name[32];
+  std::snprintf(name, sizeof name, "/frame_%05d.", frame);
+  return dir + name + extension;
+}
+
 // Writes frame_NNNNN.EXT per frame with a writer of (path, snapshot, up axis): PLY or VDB.
 class FileSink final : public FrameSink {
  public:
@@ -76,9 +83,7 @@ class FileSink final : public FrameSink {
         clock_(clock) {}
   void write(const Snapshot& s) override {
     const StageClock::Scope time(&clock_, stage_);
-    char name[32];
-    std::snprintf(name, sizeof name, "/frame_%05d.", s.frame);
-    writer_(dir_ + name + extension_, s, up_);
+    writer_(framePath(dir_, s.frame, extension_), s, up_);
   }
 
  private:
@@ -217,13 +222,12 @@ Scene resolvedScene(const RunOptions& options) {
 void replayFrames(const std::string& dir, int count, bool from_png, const Scene& scene,
                   RenderSink& sink) {
   for (int frame = 0; frame < count; ++frame) {
-    char name[32];
-    std::snprintf(name, sizeof name, "/frame_%05d.%s", frame, from_png ? "png" : "ply");
+    const std::string path = framePath(dir, frame, from_png ? "png" : "ply");
     if (from_png) {
-      sink.addToVideo(readPng(dir + name));
+      sink.addToVideo(readPng(path));
       continue;
     }
-    Snapshot snapshot = readPly(dir + name);
+    Snapshot snapshot = readPly(path);
     snapshot.colliders = collidersAt(scene, scene.dimension, snapshot.time);
     sink.write(snapshot);  // no PNG directory: into the video only
   }
@@ -313,10 +317,9 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
   if (saved && options.render.mp4)  // the frames the video's start is rebuilt from
     for (int frame = 0; frame < first_frame; ++frame) {
-      char name[32];
-      std::snprintf(name, sizeof name, "/frame_%05d.%s", frame, options.render.png ? "png" : "ply");
-      if (!std::filesystem::exists(options.out + name))
-        throw InputError(options.out + name + ": missing, and the video's first frames are " +
+      const std::string path = framePath(options.out, frame, options.render.png ? "png" : "ply");
+      if (!std::filesystem::exists(path))
+        throw InputError(path + ": missing, and the video's first frames are " +
                          "rebuilt from it; `" + resume_command +
                          " --no-mp4` continues the run without the video");
     }

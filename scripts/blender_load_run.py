@@ -67,11 +67,11 @@ HANDLER_NAME = "snowsim_frame_change"
 
 
 def read_ply(path):
-    """The vertex columns of a binary little-endian PLY (a dict of numpy arrays) and its up axis."""
+    """The vertex columns of a binary little-endian PLY: a dict of numpy arrays."""
     with open(path, "rb") as f:
         if f.readline().strip() != b"ply":
             raise ValueError(path + ": not a PLY file")
-        fields, up, in_vertex = [], "y", False
+        fields, in_vertex = [], False
         while True:
             words = f.readline().decode("ascii", "replace").split()
             if not words:
@@ -80,8 +80,6 @@ def read_ply(path):
                 break
             if words[0] == "format" and words[1] != "binary_little_endian":
                 raise ValueError(path + ": only binary_little_endian PLY is read")
-            if words[:3] == ["comment", "snowsim", "up"]:
-                up = words[3]
             if words[0] == "element":
                 in_vertex = words[1] == "vertex"
                 if in_vertex:
@@ -89,7 +87,19 @@ def read_ply(path):
             if words[0] == "property" and in_vertex:
                 fields.append((words[2], PLY_TYPES[words[1]]))
         vertices = np.fromfile(f, dtype=np.dtype(fields), count=count)
-    return {name: vertices[name] for name, _ in fields}, up
+    return {name: vertices[name] for name, _ in fields}
+
+
+def ply_comment(path, key):
+    """The value of a frame's `comment snowsim KEY VALUE` header line, or None."""
+    with open(path, "rb") as f:
+        for line in f:
+            words = line.decode("ascii", "replace").split()
+            if words[:3] == ["comment", "snowsim", key] and len(words) > 3:
+                return words[3]
+            if words[:1] == ["end_header"]:
+                return None
+    return None
 
 
 def frame_files(run_dir, extension):
@@ -104,7 +114,7 @@ def frame_files(run_dir, extension):
 
 def show_frame(obj, path):
     """Puts the PLY frame at `path` into the object's mesh: positions and attributes."""
-    columns, _ = read_ply(path)
+    columns = read_ply(path)
     mesh = obj.data
     count = len(columns["x"])
     if len(mesh.vertices) != count:
@@ -172,14 +182,14 @@ def object_of_run(name, run_dir, kind):
     return None
 
 
-def load_particles(run_dir, scene, files):
+def load_particles(run_dir, scene, files, up):
     first = next(iter(files.values()))
     obj = object_of_run("snowsim_particles", run_dir, "MESH")
     if obj is None:
         obj = bpy.data.objects.new("snowsim_particles", bpy.data.meshes.new("snowsim_particles"))
         scene.collection.objects.link(obj)
         obj["snowsim_run"] = run_dir
-    turn_to_z_up(obj, read_ply(first)[1])
+    turn_to_z_up(obj, up)
     show_frame(obj, first)
     if "snowsim_points" not in obj.modifiers:
         modifier = obj.modifiers.new("snowsim_points", "NODES")
@@ -349,7 +359,7 @@ def frame_startup_scene(scene, particles, last_frame):
     bpy.context.view_layer.update()
     first = np.empty(3 * len(particles.data.vertices), np.float32)
     particles.data.vertices.foreach_get("co", first)
-    last, _ = read_ply(last_frame)
+    last = read_ply(last_frame)
     local = np.vstack([first.reshape(-1, 3), np.column_stack([last["x"], last["y"], last["z"]])])
     world = local @ np.array(particles.matrix_world.to_3x3()).T
     low = Vector(world.min(axis=0)) + particles.matrix_world.translation
@@ -382,13 +392,13 @@ def load_run(run_dir, with_volume=False):
     else:
         fps = frame_rate_of(list(files.values()))
     scene = bpy.context.scene
-    particles = load_particles(run_dir, scene, files)
+    up = ply_comment(next(iter(files.values())), "up") or "y"
+    particles = load_particles(run_dir, scene, files, up)
     # The frame rate as an integer over a base, as Blender keeps it (50 fps: 50 / 1).
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
     scene.frame_start = next(iter(files))
     scene.frame_end = next(reversed(files))
-    up = read_ply(next(iter(files.values())))[1]
     if with_volume:
         load_volume(run_dir, scene, volumes, up)
     for shape in load_colliders(run_dir, scene, up):
@@ -400,16 +410,8 @@ def load_run(run_dir, with_volume=False):
 
 
 def frame_rate_of(paths):
-    """Frames per second from the `comment snowsim time` of the first two frames (else 24)."""
-    times = []
-    for path in paths[:2]:
-        with open(path, "rb") as f:
-            for line in f:
-                words = line.split()
-                if words[:3] == [b"comment", b"snowsim", b"time"]:
-                    times.append(float(words[3]))
-                if words[:1] == [b"end_header"]:
-                    break
+    """Frames per second from the times of the first two frames (else 24)."""
+    times = [float(t) for t in (ply_comment(p, "time") for p in paths[:2]) if t is not None]
     return 1 / (times[1] - times[0]) if len(times) == 2 and times[1] > times[0] else 24.0
 
 

@@ -155,8 +155,8 @@ TEST(StudyShards, SlurmScriptSubmitsAnArrayAndADependentMerge) {
   std::filesystem::permissions(sbatch, std::filesystem::perms::owner_all);
   const std::string script = std::string(SNOWSIM_SOURCE_DIR) + "/scripts/slurm_study.sh";
   // Without sbatch: a message, and nothing made.
-  auto result = runCommand("SBATCH=" + (dir / "bin" / "no-sbatch").string() + " " + script +
-                           " 3 " + (dir / "none.csv").string());
+  auto result = runCommand("SBATCH=" + (dir / "bin" / "no-sbatch").string() + " " + script + " 3 " +
+                           (dir / "none.csv").string());
   EXPECT_EQ(result.code, 2) << result.output;
   EXPECT_NE(result.output.find("sbatch not found"), std::string::npos) << result.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "none.shards"));

@@ -324,11 +324,11 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                          " --no-mp4` continues the run without the video");
     }
   std::string refused;
+  std::optional<RunDirectoryLock> lock;  // held until the run ends
   if (writes) try {
-      if (saved)
-        prepareOutputDirectory(options.out);
-      else
-        prepareRunDirectory(options.out, video_name, options.overwrite);
+      prepareOutputDirectory(options.out);
+      lock.emplace(options.out);
+      if (!saved) prepareRunDirectory(options.out, video_name, options.overwrite);
     } catch (const std::exception& e) {  // a file system error too: the others wait below
       refused = e.what();
     }
@@ -581,6 +581,7 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
 // snowsim resume DIR: the run in DIR continued from its checkpoint with its own command line.
 // drop_video: the run goes on without its MP4 (resume --no-mp4), as if started with --no-mp4.
 void resume(const std::string& dir, int threads, bool drop_video) {
+  RunDirectoryLock::refuseIfHeld(dir);  // before its checkpoint, which a running run rewrites
   const SavedRun saved = loadCheckpoint(dir);
   RunOptions options;
   CLI::App parser;

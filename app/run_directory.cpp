@@ -1,6 +1,11 @@
 #include "app/run_directory.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -94,6 +99,35 @@ void prepareRunDirectory(const std::string& dir, const std::string& video, bool 
   }
   std::fprintf(stderr, "snowsim: --overwrite: removed %s of an earlier run from %s\n",
                describe(files).c_str(), dir.c_str());
+}
+
+namespace {
+
+// dir opened and flocked with `operation` (without waiting), or -1 where it cannot be: a missing
+// directory, whose error the caller's own checks name, or a file system without flock.
+int lockedDirectory(const std::string& dir, int operation) {
+  const int fd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0 || flock(fd, operation | LOCK_NB) == 0) return fd;
+  const int error = errno;
+  close(fd);
+  if (error == EWOULDBLOCK)
+    throw InputError(dir +
+                     ": another snowsim run or resume is writing into it; wait for it to end "
+                     "(or stop it), or choose another --out");
+  return -1;
+}
+
+}  // namespace
+
+RunDirectoryLock::RunDirectoryLock(const std::string& dir) : fd_(lockedDirectory(dir, LOCK_EX)) {}
+
+void RunDirectoryLock::refuseIfHeld(const std::string& dir) {
+  const int fd = lockedDirectory(dir, LOCK_SH);
+  if (fd >= 0) close(fd);
+}
+
+RunDirectoryLock::~RunDirectoryLock() {
+  if (fd_ >= 0) close(fd_);
 }
 
 }  // namespace snowsim

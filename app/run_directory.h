@@ -19,4 +19,23 @@ std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& 
 // exactly those files (temporaries included) and says on stderr what it removed.
 void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite);
 
+// Holds dir for one run (or resume) while it lives: a second run, or a resume, given the same
+// directory is refused instead of writing its frames among this one's. An advisory flock on the
+// directory, so the kernel lets go when the process ends, however it ends. Where the file system
+// has no such locks, the run goes on unlocked.
+class RunDirectoryLock {
+ public:
+  // Throws InputError when another process holds dir.
+  explicit RunDirectoryLock(const std::string& dir);
+  // Throws the same InputError when another process holds dir, without holding it: what resume
+  // checks before it reads the checkpoint of a run that may still be going.
+  static void refuseIfHeld(const std::string& dir);
+  ~RunDirectoryLock();
+  RunDirectoryLock(const RunDirectoryLock&) = delete;
+  RunDirectoryLock& operator=(const RunDirectoryLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 }  // namespace snowsim

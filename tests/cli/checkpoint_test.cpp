@@ -259,6 +259,36 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   EXPECT_GT(first_stages, 0.5 * first_wall) << "the first session's stages are not counted";
 }
 
+// A run holds its directory: a second run, an --overwrite or a resume into it while it goes is
+// refused and writes nothing; once it has stopped, the resume continues it.
+TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume) {
+  const fs::path out = freshDir("held");
+  const std::vector<std::string> args{
+      "run",   sceneFile("mpm_reference"), "-o",    out.string(),   "--no-png", "--no-mp4",
+      "--set", "time.duration=40",         "--set", "time.fps=0.05"};
+  const pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / frameName(0, "ply")));
+  const std::string second = "run " + sceneFile("mpm_reference") + " -o " + out.string() +
+                             " --no-png --no-mp4 --set time.duration=0.1";
+  for (const std::string& command : {second, second + " --overwrite", "resume " + out.string()}) {
+    SCOPED_TRACE(command);
+    const auto r = runSnowsim(command);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(out.string() + ": another snowsim run or resume is writing into it"),
+              std::string::npos)
+        << r.output;
+  }
+  EXPECT_TRUE(fs::exists(out / frameName(0, "ply")))
+      << "--overwrite removed the running run's frame";
+  const int status = finish(child, SIGTERM);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << "the run ended before the signal";
+  EXPECT_EQ(runStateOf(out)["next_frame"], 1) << "the refused commands changed the checkpoint";
+  const auto resumed = runSnowsim("resume " + out.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["frames"], 3);
+}
+
 // The MP4 of a killed and resumed run holds every frame once: ffprobe counts as many as PNGs.
 TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
   const fs::path out = freshDir("video");

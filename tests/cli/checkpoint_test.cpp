@@ -349,7 +349,7 @@ TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
 
 // A run that writes nothing but its MP4 cannot rebuild the video's first frames: resume says so
 // and names --no-mp4, which goes on without the video, leaving the stopped run's video of its
-// first frames as it was.
+// first frames as it was, and later resumes of it too.
 TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   const fs::path out = freshDir("video_only");
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
@@ -369,7 +369,20 @@ TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   const auto refused = runSnowsim("resume " + out.string());
   EXPECT_EQ(refused.code, 2) << refused.output;
   EXPECT_NE(refused.output.find("--no-mp4"), std::string::npos) << refused.output;
-  const auto resumed = runSnowsim("resume " + out.string() + " --no-mp4");
+  // Stopped again, the run resumes without --no-mp4: its recorded command line carries it.
+  const int stopped_at = runStateOf(out)["next_frame"];
+  const fs::path second_log = out.parent_path() / "video_only_resumed.log";
+  const pid_t again = startSnowsim({"resume", out.string(), "--no-mp4"}, second_log.string());
+  for (int i = 0; i < 30000 && runStateOf(out)["next_frame"] == stopped_at; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const int second_status = finish(again, SIGTERM);
+  ASSERT_TRUE(WIFEXITED(second_status));
+  ASSERT_EQ(WEXITSTATUS(second_status), 128 + SIGTERM) << "the resumed run ended before the stop";
+  const std::string stopped_again = bytesOf(second_log);
+  EXPECT_NE(stopped_again.find("snowsim resume " + out.string() + " continues it"),
+            std::string::npos)
+      << stopped_again;
+  const auto resumed = runSnowsim("resume " + out.string());
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_FALSE(
       nlohmann::json::parse(std::ifstream(out / "run.json")).contains("interrupted_by_signal"));

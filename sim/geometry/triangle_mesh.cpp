@@ -52,6 +52,14 @@ TriangleMesh readTriangles(const std::string& path) {
     for (unsigned v = 0; v < part->mNumVertices; ++v) {
       const aiVector3D& p = part->mVertices[v];
       const Point point{p.x, p.y, p.z};
+      // Beyond 1e9 (m, before any scale) no grid reaches: a corrupt number, not a shape.
+      if (!(std::abs(point[0]) <= 1e9 && std::abs(point[1]) <= 1e9 && std::abs(point[2]) <= 1e9)) {
+        std::ostringstream s;
+        s << "vertex " << v << " of mesh " << m << " is at (" << point[0] << ", " << point[1]
+          << ", " << point[2] << "): its coordinates must be finite numbers within 1e9 of the "
+          << "origin";
+        fail(path, s.str());
+      }
       const auto [it, added] = index_of.emplace(point, static_cast<int>(mesh.vertices.size()));
       if (added) mesh.vertices.push_back(point);
       merged[v] = it->second;

@@ -4,7 +4,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <sstream>
+#include <string>
+#include <vector>
 
+#include "sim/core/errors.h"
 #include "sim/geometry/level_set.h"
 
 namespace snowsim {
@@ -300,6 +304,19 @@ Particles<D> sampleBodies(const Scene& scene) {
         scene, index, from, to, [&](const Vec3& p) { return bodyContains(body, p, shape_dim); },
         particles);
   }
+  // A body wider than its spacing may still hold none (a mesh that is a thin shell).
+  std::vector<int> count(scene.bodies.size(), 0);
+  for (int p = 0; p < particles.size(); ++p) ++count[particles.body[p]];
+  for (size_t b = 0; b < count.size(); ++b)
+    if (count[b] == 0) {
+      std::ostringstream s;
+      s << scene.file << ": bodies[" << b
+        << "] holds no particles: no point of its particle lattice falls inside it (is it thinner "
+           "than its particle spacing of "
+        << particleSpacing(scene, scene.bodies[b])
+        << " m?); make it larger or thicker, or the cells finer";
+      throw InputError(s.str());
+    }
   return particles;
 }
 

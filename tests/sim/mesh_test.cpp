@@ -7,6 +7,7 @@
 #include <fstream>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "sim/core/collider.h"
@@ -117,6 +118,9 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
       {"empty.obj", "", "the file is empty"},
       {"no_faces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "the mesh has no triangles"},
       {"degenerate.obj", cubeObj() + "v 2 2 2\nv 3 3 3\nv 4 4 4\nf 9 10 11\n", "degenerate"},
+      {"nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+       "is at (nan, 0, 0): its coordinates must be finite numbers within 1e9 of the origin"},
+      {"huge.obj", "v 1e30 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is at (1e+30, 0, 0)"},
   };
   for (const Case& c : cases) {
     const fs::path path = writeFile(c.file, c.text);
@@ -141,6 +145,48 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   flat["grid"]["cells"] = {20, 20};
   flat["bodies"][0]["position"] = {0.1, 0.1};
   EXPECT_NE(errorOf(flat).find("\"mesh\" needs a 3D scene"), std::string::npos) << errorOf(flat);
+}
+
+// A body that holds no particles is refused: one narrower than its particle spacing (a mesh in
+// millimetres read as metres) when the scene is read, naming the field; a thin plate turned
+// across the axes, as wide as it likes along them, when it is filled.
+TEST(TriangleMesh, ABodyThatHoldsNoParticlesIsRefused) {
+  // 27 particles a cell of 0.01 m: a spacing of 0.0033 m; the unit cube at 0.003 m is narrower.
+  const std::string tiny = errorOf(meshScene(kMeshes + "cube.obj", 0.003, {0.1, 0.1, 0.1}));
+  EXPECT_NE(tiny.find("bodies[0].scale: the body is 0.003 m across along x, less than its "
+                      "particle spacing of 0.00333333 m"),
+            std::string::npos)
+      << tiny;
+  Json box = meshScene(kMeshes + "cube.obj", 0.05, {0.1, 0.1, 0.1});
+  box["bodies"][0] = {{"shape", "box"}, {"center", {0.1, 0.1, 0.1}}, {"size", {0.1, 0.002, 0.1}}};
+  EXPECT_NE(errorOf(box).find("bodies[0].size: the body is 0.002 m across along y"),
+            std::string::npos)
+      << errorOf(box);
+  Json ball = box;
+  ball["bodies"][0] = {{"shape", "ball"}, {"center", {0.1, 0.1, 0.1}}, {"radius", 0.001}};
+  EXPECT_NE(errorOf(ball).find("bodies[0].radius: the body is 0.002 m across along x"),
+            std::string::npos)
+      << errorOf(ball);
+  // A plate 0.1 mm thick turned 45 degrees about z: 0.07 m across along x and y, yet no lattice
+  // point falls inside it.
+  std::string plate;
+  for (int corner = 0; corner < 8; ++corner)
+    plate += "v " + std::to_string(corner & 4 ? 0.5 : -0.5) + " " +
+             std::to_string(corner & 2 ? 0.0005 : -0.0005) + " " +
+             std::to_string(corner & 1 ? 0.5 : -0.5) + "\n";
+  std::ifstream in(kMeshes + "cube.obj");  // the unit cube's faces, on the same corners
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("f ", 0) == 0) plate += line + "\n";
+  Json turned = meshScene(writeFile("plate.obj", plate).string(), 0.1, {0.1, 0.1, 0.1});
+  turned["bodies"][0]["rotation"] = {0, 0, 45};
+  const Scene scene = parseScene(turned, (tempDir() / "scene.json").string());
+  try {
+    sampleBodies<3>(scene);
+    ADD_FAILURE() << "the plate was filled";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bodies[0] holds no particles"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(LevelSet, IsTheSignedDistanceToTheCube) {

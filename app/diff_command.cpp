@@ -50,6 +50,23 @@ std::set<std::string> pngNames(const std::string& dir) {
   return names;
 }
 
+// A report (--out, --json) written over an image it compares would replace the reference.
+void refuseWritingOverAnInput(const char* option, const std::string& path, const std::string& a,
+                              const std::string& b, bool directories) {
+  std::error_code ec;
+  if (path.empty() || !fs::exists(path, ec)) return;
+  std::string extension = fs::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
+  if (directories && extension != ".png") return;  // a directory's frames are its PNG files
+  for (const std::string& input : {a, b}) {
+    const fs::path compared =
+        directories ? fs::path(input) / fs::path(path).filename() : fs::path(input);
+    if (fs::exists(compared, ec) && fs::equivalent(path, compared, ec))
+      throw InputError(std::string(option) + " " + path + ": is " + compared.string() +
+                       ", one of the images compared; write the report elsewhere");
+  }
+}
+
 // Both files or both directories; says which is which when neither or a mixture.
 bool bothDirectories(const std::string& a, const std::string& b) {
   for (const std::string& path : {a, b})
@@ -64,7 +81,16 @@ bool bothDirectories(const std::string& a, const std::string& b) {
 class Comparer {
  public:
   explicit Comparer(const DiffOptions& options) : options_(options) {
-    if (!options.limits.mask.empty()) mask_ = readPng(options.limits.mask);
+    if (options.limits.mask.empty()) return;
+    mask_ = readPng(options.limits.mask);
+    bool keeps_any = false;
+    for (int y = 0; y < mask_->height && !keeps_any; ++y)
+      for (int x = 0; x < mask_->width && !keeps_any; ++x)
+        keeps_any = !maskExcludes(mask_->pixel(x, y));
+    if (!keeps_any)
+      throw InputError("--mask " + options.limits.mask +
+                       ": every pixel is dark, so no pixel would be compared; its light pixels "
+                       "(brightness half or more) are the ones compared");
   }
 
   // Compares the images at a and b, named `name` in the reports.
@@ -123,6 +149,9 @@ void diff(const DiffOptions& options) {
   if (comparison.limits.directories && !options.out.empty())
     throw InputError("--out: writes the diff image of two images; for directories use --html");
   // Everything the user asked for is checked before the comparison, which may take a while.
+  refuseWritingOverAnInput("--out", options.out, options.a, options.b, false);
+  refuseWritingOverAnInput("--json", options.json, options.a, options.b,
+                           comparison.limits.directories);
   const Comparer comparer(options);
   if (!options.json.empty()) checkJsonReportPath(options.json);
   std::optional<HtmlReport> html;

@@ -125,8 +125,14 @@ bool RunComparison::fails(const FrameResult& frame) const {
 }
 
 bool RunComparison::passed() const {
-  return std::none_of(frames.begin(), frames.end(),
-                      [this](const FrameResult& f) { return fails(f); });
+  return comparedFrames() > 0 && std::none_of(frames.begin(), frames.end(),
+                                              [this](const FrameResult& f) { return fails(f); });
+}
+
+long RunComparison::comparedFrames() const {
+  return std::count_if(frames.begin(), frames.end(), [](const FrameResult& f) {
+    return f.status == FrameResult::Status::Passed || f.status == FrameResult::Status::Failed;
+  });
 }
 
 std::string frameLine(const RunComparison& comparison, const FrameResult& frame) {
@@ -153,6 +159,7 @@ std::string summaryLine(const RunComparison& comparison) {
                compared = long(comparison.frames.size()) - missing - extra;
     text += format("%ld of %ld frames beyond the limits, %ld missing from B, %ld extra in B",
                    countStatus(comparison, FrameResult::Status::Failed), compared, missing, extra);
+    if (compared == 0) text += " (no frame is in both: nothing was compared)";
   } else {
     const DiffFigures& f = comparison.frames.front().figures;
     text += format("share %.4f of the pixels differ", f.share);

@@ -35,7 +35,9 @@ struct RunComparison {
 
   // Whether a frame fails: beyond the limits, or missing or extra when those fail.
   bool fails(const FrameResult& frame) const;
+  // No frame beyond the limits, no missing or extra frame that fails, and at least one compared.
   bool passed() const;
+  long comparedFrames() const;  // frames in both A and B
 };
 
 // The line printed for a frame of a directory: only frames that differ, are missing or extra get

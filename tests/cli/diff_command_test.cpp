@@ -240,6 +240,28 @@ TEST(DiffCommand, MaskLeavesItsDarkPixelsOut) {
   r = runSnowsim("diff " + a + " " + b + " --mask " + (dir / "nonesuch.png").string());
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_TRUE(contains(r.output, "nonesuch.png")) << r.output;
+  // A mask that leaves nothing to compare (all dark, or one inverted by mistake) is refused
+  // rather than passing every frame.
+  const std::string dark = (dir / "dark.png").string();
+  snowsim::writePng(dark, flat(0));
+  r = runSnowsim("diff " + a + " " + b + " --mask " + dark);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_TRUE(contains(r.output, "--mask " + dark + ": every pixel is dark")) << r.output;
+}
+
+// A directory comparison in which no frame is in both directories compares nothing: it fails even
+// when missing and extra frames are allowed (a render step that wrote no frames is not a pass).
+TEST(DiffCommand, NoFrameComparedIsAFailure) {
+  const TwoRuns runs("diff_none");
+  const fs::path empty = runs.root / "empty";
+  fs::create_directories(empty);
+  for (const std::string& args : {runs.a.string() + " " + empty.string() + " --allow-missing",
+                                  empty.string() + " " + runs.b.string() + " --allow-extra"}) {
+    const Result r = runSnowsim("diff " + args);
+    EXPECT_EQ(r.code, 1) << args << ": " << r.output;
+    EXPECT_TRUE(contains(r.output, "(no frame is in both: nothing was compared)"))
+        << args << ": " << r.output;
+  }
 }
 
 // Bad input: exit 2, a message naming the file or option, and no report, whole or half.
@@ -271,6 +293,12 @@ TEST(DiffCommand, BadInputWritesNoReport) {
   expectRefused(runs.args() + " --json " + runs.root.string(), "is a directory");
   expectRefused(runs.args() + " --html /proc/snowsim_report", "--html /proc/snowsim_report");
   expectRefused(runs.args() + " --html " + runs.a.string(), "exists and is not an earlier report");
+  const std::string reference = (runs.a / "frame_0.png").string();
+  expectRefused(runs.args() + " --json " + reference,
+                "--json " + reference + ": is " + reference + ", one of the images compared");
+  expectRefused(reference + " " + (runs.b / "frame_0.png").string() + " --out " + reference,
+                "--out " + reference + ": is " + reference);
+  EXPECT_TRUE(snowsim::readPng(reference).width == kWidth) << "the reference frame was replaced";
   EXPECT_TRUE(fs::exists(runs.a / "frame_0.png")) << "a directory in the way is left alone";
 
   const fs::path empty_a = runs.root / "empty_a", empty_b = runs.root / "empty_b";

@@ -82,7 +82,11 @@ class Comparer {
  public:
   explicit Comparer(const DiffOptions& options) : options_(options) {
     if (options.limits.mask.empty()) return;
-    mask_ = readPng(options.limits.mask);
+    try {
+      mask_ = readPng(options.limits.mask);
+    } catch (const InputError& e) {
+      throw InputError(std::string("--mask ") + e.what());
+    }
     bool keeps_any = false;
     for (int y = 0; y < mask_->height && !keeps_any; ++y)
       for (int x = 0; x < mask_->width && !keeps_any; ++x)
@@ -150,6 +154,8 @@ void diff(const DiffOptions& options) {
     throw InputError("--out: writes the diff image of two images; for directories use --html");
   // Everything the user asked for is checked before the comparison, which may take a while.
   refuseWritingOverAnInput("--out", options.out, options.a, options.b, false);
+  if (!options.out.empty() && fs::is_directory(options.out))
+    throw InputError("--out " + options.out + ": is a directory; give the diff image's file name");
   refuseWritingOverAnInput("--json", options.json, options.a, options.b,
                            comparison.limits.directories);
   const Comparer comparer(options);

@@ -143,6 +143,8 @@ double TriangleMesh::signedVolume() const {
 
 TriangleMesh loadTriangleMesh(const std::string& path) {
   std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    fail(path, "is a directory; give a mesh file (a closed triangle mesh: OBJ, STL or PLY)");
   if (!std::filesystem::is_regular_file(path, error))
     fail(path, "no such mesh file (a closed triangle mesh: OBJ, STL or PLY)");
   if (std::filesystem::file_size(path, error) == 0) fail(path, "the file is empty");

@@ -239,7 +239,7 @@ TEST(DiffCommand, MaskLeavesItsDarkPixelsOut) {
       << r.output;
   r = runSnowsim("diff " + a + " " + b + " --mask " + (dir / "nonesuch.png").string());
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_TRUE(contains(r.output, "nonesuch.png")) << r.output;
+  EXPECT_TRUE(contains(r.output, "--mask " + (dir / "nonesuch.png").string())) << r.output;
   // A mask that leaves nothing to compare (all dark, or one inverted by mistake) is refused
   // rather than passing every frame.
   const std::string dark = (dir / "dark.png").string();
@@ -289,6 +289,9 @@ TEST(DiffCommand, BadInputWritesNoReport) {
       runs.a.string() + " " + (runs.a / "frame_0.png").string() + reports,
       runs.a.string() + " is a directory but " + (runs.a / "frame_0.png").string() + " is not");
   expectRefused(runs.args() + " --out " + (runs.root / "d.png").string() + reports, "--out: ");
+  expectRefused((runs.a / "frame_0.png").string() + " " + (runs.b / "frame_0.png").string() +
+                    " --out " + runs.root.string() + reports,
+                "--out " + runs.root.string() + ": is a directory");
   expectRefused(runs.args() + " --json /proc/snowsim/report.json", "--json /proc/snowsim");
   expectRefused(runs.args() + " --json " + runs.root.string(), "is a directory");
   expectRefused(runs.args() + " --html /proc/snowsim_report", "--html /proc/snowsim_report");

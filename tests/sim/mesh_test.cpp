@@ -131,6 +131,8 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   }
   const std::string missing = errorOf(meshScene("no_such.obj", 1, {0.1, 0.1, 0.1}));
   EXPECT_NE(missing.find("no_such.obj: no such mesh file"), std::string::npos) << missing;
+  const std::string folder = errorOf(meshScene(kMeshes, 1, {0.1, 0.1, 0.1}));
+  EXPECT_NE(folder.find("meshes/: is a directory; give a mesh file"), std::string::npos) << folder;
   // Larger than the 0.2 m grid: the unit cube at scale 0.3.
   const std::string large = errorOf(meshScene(kMeshes + "cube.obj", 0.3, {0.1, 0.1, 0.1}));
   EXPECT_NE(large.find("bodies[0].scale"), std::string::npos) << large;

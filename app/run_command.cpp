@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 
@@ -33,6 +34,7 @@
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
+#include "sim/scene/sampling.h"
 #include "sim/simulation.h"
 #include "version.h"
 
@@ -288,6 +290,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
   if (saved) checkRanksOf(*saved, world.ranks());
   refuseWhatIsNotDistributed(scene, world.ranks());
+  refuseBodiesNarrowerThanTheirParticles(scene);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
@@ -581,7 +584,9 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
 // snowsim resume DIR: the run in DIR continued from its checkpoint with its own command line.
 // drop_video: the run goes on without its MP4 (resume --no-mp4), as if started with --no-mp4.
 void resume(const std::string& dir, int threads, bool drop_video) {
-  RunDirectoryLock::refuseIfHeld(dir);  // before its checkpoint, which a running run rewrites
+  // Before its checkpoint, which a running run rewrites; by rank 0 alone, which takes the lock.
+  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+  if (!rank || std::string(rank) == "0") RunDirectoryLock::refuseIfHeld(dir);
   const SavedRun saved = loadCheckpoint(dir);
   RunOptions options;
   CLI::App parser;

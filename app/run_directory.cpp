@@ -1,12 +1,12 @@
 #include "app/run_directory.h"
 
 #include <fcntl.h>
-#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <regex>
@@ -103,27 +103,46 @@ void prepareRunDirectory(const std::string& dir, const std::string& video, bool 
 
 namespace {
 
-// dir opened and flocked with `operation` (without waiting), or -1 where it cannot be: a missing
-// directory, whose error the caller's own checks name, or a file system without flock.
-int lockedDirectory(const std::string& dir, int operation) {
-  const int fd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0 || flock(fd, operation | LOCK_NB) == 0) return fd;
-  const int error = errno;
-  close(fd);
-  if (error == EWOULDBLOCK)
-    throw InputError(dir +
-                     ": another snowsim run or resume is writing into it; wait for it to end "
-                     "(or stop it), or choose another --out");
-  return -1;
+const char* const kLockFile = ".snowsim.lock";
+
+std::string heldMessage(const std::string& dir) {
+  return dir + ": another snowsim run or resume is writing into it (it holds " + dir + "/" +
+         kLockFile + "); wait for it to end, or stop it";
+}
+
+// A whole-file open-file-description lock: released when the descriptor closes, however the
+// process ends, and carried to the server on NFS, where a flock on a directory is only local.
+struct flock wholeFile(short type) {
+  struct flock lock {};
+  lock.l_type = type;
+  lock.l_whence = SEEK_SET;
+  return lock;
 }
 
 }  // namespace
 
-RunDirectoryLock::RunDirectoryLock(const std::string& dir) : fd_(lockedDirectory(dir, LOCK_EX)) {}
+RunDirectoryLock::RunDirectoryLock(const std::string& dir) {
+  const std::string path = dir + "/" + kLockFile;
+  fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  struct flock lock = wholeFile(F_WRLCK);
+  if (fd_ >= 0 && fcntl(fd_, F_OFD_SETLK, &lock) == 0) return;
+  const int error = errno;
+  if (fd_ >= 0) close(fd_);
+  fd_ = -1;
+  if (error == EAGAIN || error == EACCES) throw InputError(heldMessage(dir));
+  std::fprintf(stderr,
+               "snowsim: warning: %s: cannot lock it (%s): a second run or resume given this "
+               "directory would not be refused\n",
+               path.c_str(), std::strerror(error));
+}
 
 void RunDirectoryLock::refuseIfHeld(const std::string& dir) {
-  const int fd = lockedDirectory(dir, LOCK_SH);
-  if (fd >= 0) close(fd);
+  const int fd = open((dir + "/" + kLockFile).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;  // no run has locked it yet
+  struct flock lock = wholeFile(F_WRLCK);
+  const bool held = fcntl(fd, F_OFD_GETLK, &lock) == 0 && lock.l_type != F_UNLCK;
+  close(fd);
+  if (held) throw InputError(heldMessage(dir));
 }
 
 RunDirectoryLock::~RunDirectoryLock() {

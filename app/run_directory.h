@@ -20,15 +20,15 @@ std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& 
 void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite);
 
 // Holds dir for one run (or resume) while it lives: a second run, or a resume, given the same
-// directory is refused instead of writing its frames among this one's. An advisory flock on the
-// directory, so the kernel lets go when the process ends, however it ends. Where the file system
-// has no such locks, the run goes on unlocked.
+// directory is refused instead of writing its frames among this one's. A lock on dir/.snowsim.lock
+// that the kernel releases when the process ends, however it ends; where the file system cannot
+// lock, a warning says so and the run goes on unlocked.
 class RunDirectoryLock {
  public:
   // Throws InputError when another process holds dir.
   explicit RunDirectoryLock(const std::string& dir);
-  // Throws the same InputError when another process holds dir, without holding it: what resume
-  // checks before it reads the checkpoint of a run that may still be going.
+  // Throws the same InputError when another process holds dir, without taking the lock: what
+  // resume checks before it reads the checkpoint of a run that may still be going.
   static void refuseIfHeld(const std::string& dir);
   ~RunDirectoryLock();
   RunDirectoryLock(const RunDirectoryLock&) = delete;

@@ -10,6 +10,7 @@
 
 #include "sim/core/errors.h"
 #include "sim/geometry/level_set.h"
+#include "sim/scene/json_fields.h"
 
 namespace snowsim {
 
@@ -39,6 +40,33 @@ double particleSpacing(const Scene& scene, const Body& body) {
   const double per_axis =
       std::round(std::pow(body.particles_per_cell, 1.0 / scene.authored_dimension));
   return scene.cell_size / per_axis;
+}
+
+void refuseBodiesNarrowerThanTheirParticles(const Scene& scene) {
+  for (size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Body& b = scene.bodies[i];
+    if (b.shape == BodyShape::Points) continue;
+    const double spacing = particleSpacing(scene, b);
+    const auto [lo, hi] = b.shape == BodyShape::Mesh ? b.mesh.placedAt(b.center).bounds()
+                                                     : std::array<std::array<double, 3>, 2>{};
+    for (int a = 0; a < scene.authored_dimension; ++a) {
+      const double across = b.shape == BodyShape::Mesh  ? hi[a] - lo[a]
+                            : b.shape == BodyShape::Box ? b.size[a]
+                                                        : 2 * b.radius;
+      if (across >= spacing) continue;
+      std::ostringstream s;
+      s << "the body is " << across << " m across along "
+        << "xyz"[a] << ", less than its particle spacing of " << spacing
+        << " m (grid.cell_size over the particles per cell along an axis), so it would hold no "
+           "particles or a single layer; make it larger, or the cells finer";
+      throw FieldError(scene.file,
+                       "bodies[" + std::to_string(i) + "]." +
+                           (b.shape == BodyShape::Mesh  ? "scale"
+                            : b.shape == BodyShape::Box ? "size"
+                                                        : "radius"),
+                       s.str());
+    }
+  }
 }
 
 namespace {

@@ -21,8 +21,14 @@ double particleSpacing(const Scene& scene, const Body& body);
 // index, k and the axis, so a body's particles do not depend on the order they are made in.
 double latticeJitter(int seed, int body, const std::array<int, 3>& k, int axis);
 
+// Throws a FieldError naming the body's size field (scale, size or radius) when a body (not a
+// points body) is narrower along an axis than its particle spacing: it would hold no particles,
+// or a single layer; most likely a mesh in millimetres read as metres. Of the scene as it runs
+// (after --scale and --quality), before anything is written.
+void refuseBodiesNarrowerThanTheirParticles(const Scene& scene);
+
 // Fills every body of the scene. A 2D-authored scene run in 3D extrudes each body through the
-// slab's whole depth.
+// slab's whole depth. Throws InputError when a body holds no particle once filled.
 template <int D>
 Particles<D> sampleBodies(const Scene& scene);
 

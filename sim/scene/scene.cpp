@@ -9,7 +9,6 @@
 #include "sim/core/errors.h"
 #include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
-#include "sim/scene/sampling.h"
 
 namespace snowsim {
 
@@ -419,29 +418,6 @@ Body parsePointsBody(JsonFields& f, Body& b, const Scene& scene, const JsonField
   return b;
 }
 
-// A body narrower than its particle spacing along an axis holds no particles, or a single layer:
-// most likely a mesh in millimetres read as metres.
-void refuseNarrowerThanItsParticles(const JsonFields& f, const Body& b, const Scene& scene) {
-  const double spacing = particleSpacing(scene, b);
-  const auto [lo, hi] = b.shape == BodyShape::Mesh ? b.mesh.placedAt(b.center).bounds()
-                                                   : std::array<std::array<double, 3>, 2>{};
-  for (int a = 0; a < scene.authored_dimension; ++a) {
-    const double across = b.shape == BodyShape::Mesh  ? hi[a] - lo[a]
-                          : b.shape == BodyShape::Box ? b.size[a]
-                                                      : 2 * b.radius;
-    if (across >= spacing) continue;
-    std::ostringstream s;
-    s << "the body is " << across << " m across along "
-      << "xyz"[a] << ", less than its particle spacing of " << spacing
-      << " m (grid.cell_size over the particles per cell along an axis), so it would hold no "
-         "particles or a single layer; make it larger, or the cells finer";
-    f.fail(b.shape == BodyShape::Mesh  ? "scale"
-           : b.shape == BodyShape::Box ? "size"
-                                       : "radius",
-           s.str());
-  }
-}
-
 // `scene_fields` reads the scene's top level: a default count that fills no lattice is its fault.
 Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& scene_fields) {
   const std::string path = "bodies[" + std::to_string(index) + "]";
@@ -495,7 +471,6 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
       f.fail("center", s.str());
     }
   }
-  refuseNarrowerThanItsParticles(f, b, scene);
   return b;
 }
 

@@ -149,32 +149,44 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   EXPECT_NE(errorOf(flat).find("\"mesh\" needs a 3D scene"), std::string::npos) << errorOf(flat);
 }
 
-// A body that holds no particles is refused: one narrower than its particle spacing (a mesh in
-// millimetres read as metres) when the scene is read, naming the field; a thin plate turned
-// across the axes, as wide as it likes along them, when it is filled.
+// A body that holds no particles is refused before the run writes anything: one narrower than
+// its particle spacing as the scene runs (a mesh in millimetres read as metres), naming the
+// field; a thin plate turned across the axes, as wide as it likes along them, when it is filled.
 TEST(TriangleMesh, ABodyThatHoldsNoParticlesIsRefused) {
+  const auto narrowError = [](const Json& json) -> std::string {
+    try {
+      refuseBodiesNarrowerThanTheirParticles(parseScene(json, (tempDir() / "scene.json").string()));
+    } catch (const FieldError& e) {
+      return e.what();
+    }
+    return "";
+  };
   // 27 particles a cell of 0.01 m: a spacing of 0.0033 m; the unit cube at 0.003 m is narrower.
-  const std::string tiny = errorOf(meshScene(kMeshes + "cube.obj", 0.003, {0.1, 0.1, 0.1}));
+  const std::string tiny = narrowError(meshScene(kMeshes + "cube.obj", 0.003, {0.1, 0.1, 0.1}));
   EXPECT_NE(tiny.find("bodies[0].scale: the body is 0.003 m across along x, less than its "
                       "particle spacing of 0.00333333 m"),
             std::string::npos)
       << tiny;
+  EXPECT_EQ(narrowError(meshScene(kMeshes + "cube.obj", 0.004, {0.1, 0.1, 0.1})), "");
+  // A box 4 mm thick holds particles 3.3 mm apart, not 5 mm apart (8 a cell).
   Json box = meshScene(kMeshes + "cube.obj", 0.05, {0.1, 0.1, 0.1});
-  box["bodies"][0] = {{"shape", "box"}, {"center", {0.1, 0.1, 0.1}}, {"size", {0.1, 0.002, 0.1}}};
-  EXPECT_NE(errorOf(box).find("bodies[0].size: the body is 0.002 m across along y"),
+  box["bodies"][0] = {{"shape", "box"}, {"center", {0.1, 0.1, 0.1}}, {"size", {0.1, 0.004, 0.1}}};
+  EXPECT_EQ(narrowError(box), "");
+  box["particles_per_cell"] = 8;
+  EXPECT_NE(narrowError(box).find("bodies[0].size: the body is 0.004 m across along y"),
             std::string::npos)
-      << errorOf(box);
+      << narrowError(box);
   Json ball = box;
   ball["bodies"][0] = {{"shape", "ball"}, {"center", {0.1, 0.1, 0.1}}, {"radius", 0.001}};
-  EXPECT_NE(errorOf(ball).find("bodies[0].radius: the body is 0.002 m across along x"),
+  EXPECT_NE(narrowError(ball).find("bodies[0].radius: the body is 0.002 m across along x"),
             std::string::npos)
-      << errorOf(ball);
-  // A plate 0.1 mm thick turned 45 degrees about z: 0.07 m across along x and y, yet no lattice
-  // point falls inside it.
+      << narrowError(ball);
+  // A plate 1 micrometre thick turned 45 degrees about z: 0.07 m across along x and y, yet no
+  // lattice point falls inside it.
   std::string plate;
   for (int corner = 0; corner < 8; ++corner)
     plate += "v " + std::to_string(corner & 4 ? 0.5 : -0.5) + " " +
-             std::to_string(corner & 2 ? 0.0005 : -0.0005) + " " +
+             std::to_string(corner & 2 ? 0.000005 : -0.000005) + " " +
              std::to_string(corner & 1 ? 0.5 : -0.5) + "\n";
   std::ifstream in(kMeshes + "cube.obj");  // the unit cube's faces, on the same corners
   for (std::string line; std::getline(in, line);)
@@ -182,6 +194,7 @@ TEST(TriangleMesh, ABodyThatHoldsNoParticlesIsRefused) {
   Json turned = meshScene(writeFile("plate.obj", plate).string(), 0.1, {0.1, 0.1, 0.1});
   turned["bodies"][0]["rotation"] = {0, 0, 45};
   const Scene scene = parseScene(turned, (tempDir() / "scene.json").string());
+  EXPECT_EQ(narrowError(turned), "");
   try {
     sampleBodies<3>(scene);
     ADD_FAILURE() << "the plate was filled";

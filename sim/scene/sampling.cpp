@@ -260,6 +260,7 @@ void fillBody(const Scene& scene, int b, const Vec3& from, const Vec3& to, Insid
   long long lattice_count = 0;
   forEachLatticePoint<D>(scene, b, Seeding::Lattice, from, to, inside,
                          [&](const Vec<D>&) { ++lattice_count; });
+  if (lattice_count == 0) return;  // no mass to share: the body holds no particle
   Vec<D> lo, hi;
   for (int a = 0; a < D; ++a) {
     lo[a] = std::max(0.0, from[a]);

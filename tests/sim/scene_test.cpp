@@ -565,6 +565,27 @@ TEST(Scene, PoissonDiskSeedingFillsTheBodyWithItsMass) {
                            M_PI * 0.04 * 0.04);
 }
 
+// A Poisson-disk body too small to hold a lattice point has no mass to share: it holds no
+// particle (and is refused), whatever points the disks put inside it, never particles of no mass.
+TEST(Scene, APoissonDiskBodyWithoutLatticePointsHoldsNoParticle) {
+  // Radius 0.45 spacings about a lattice cell's corner: the nearest points are 0.71 away.
+  const std::string path = writeTemp(R"({
+    "name": "speck", "grid": {"cells": [10, 10], "cell_size": 0.01}, "particles_per_cell": 9,
+    "bodies": [{"shape": "ball", "center": [0.05, 0.05], "radius": 0.0015, "seeding": "poisson"}]
+  })");
+  for (int seed = 1; seed <= 40; ++seed) {
+    const Scene scene = loadScene(path, {"seed=" + std::to_string(seed)});
+    try {
+      const Particles<2> particles = sampleBodies<2>(scene);
+      ADD_FAILURE() << "seed " << seed << ": " << particles.size()
+                    << " particle(s), the first of mass " << particles.mass[0];
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bodies[0] holds no particles"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(Scene, SeedingIsChosenPerBodyAndChecked) {
   const Scene scene = loadScene(writeTemp(kBall3d), {"seeding=poisson"});
   EXPECT_EQ(scene.seeding, Seeding::Poisson);

@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/image.h"
+#include "sim/io/ply.h"
 #include "tests/cli/run_snowsim.h"
 
 namespace {
@@ -762,6 +763,39 @@ TEST(Cli, ClumpsOfADamagedRunPrintsNoRows) {
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("frame_00002.ply"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("frame,time_s"), std::string::npos) << r.output;
+}
+
+// --intact-below leaves out the particles stretched past a J_P and measures the pieces of the rest,
+// its shares still of all the particles: two rows joined by a bridge of torn snow are one clump,
+// or two pieces and the bridge left out.
+TEST(Cli, ClumpsOfTheIntactSnowLeaveOutTheTornSnow) {
+  const fs::path run = freshDir("clumps_intact");
+  fs::create_directories(run);
+  snowsim::Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {30, 2, 2};
+  s.grid.cell_size = 0.01;
+  s.grid.particle_spacing = 0.01;
+  // A row of 23 particles one spacing apart: 10 intact, 3 torn (J_P 2), 10 intact.
+  for (int i = 0; i < 23; ++i) {
+    s.position.push_back({0.01f * i, 0, 0});
+    s.velocity.push_back({0, 0, 0});
+    s.plastic_j.push_back(i >= 10 && i < 13 ? 2.0f : 1.0f);
+    s.density.push_back(400);
+    s.mass.push_back(1e-3f);
+    s.radius.push_back(0.005f);
+  }
+  snowsim::writePly((run / "frame_00000.ply").string(), s);
+  Result r = runSnowsim("clumps " + run.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("\n0,0.0000,23,1,1,1.0000,0.0000,1.0000,0.0000,0.0000\n"),
+            std::string::npos)
+      << r.output;
+  r = runSnowsim("clumps " + run.string() + " --intact-below 1.5");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("\n0,0.0000,23,2,2,0.4348,0.4348,0.8696,0.0000,0.1304\n"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(Cli, HelpDescribesEachSubcommand) {

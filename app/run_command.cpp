@@ -177,6 +177,43 @@ void warnOfCoarseMeshColliders(const Scene& scene) {
   }
 }
 
+// A collider that never moves and lies wholly outside the grid touches no snow: most likely a
+// position in other units or a typo. Its bounding sphere about its origin, which its turning
+// leaves alone, against the grid's box.
+void warnOfCollidersOutsideTheGrid(const Scene& scene) {
+  const Vec3 extent = scene.extent();
+  for (size_t i = 0; i < scene.colliders.size(); ++i) {
+    const ColliderParams& c = scene.colliders[i];
+    const Vec3 zero{0, 0, 0};
+    const bool still = c.keyframes.empty() && c.velocity == zero && c.angular_velocity == zero;
+    const auto length = [](double x, double y, double z) {
+      return std::sqrt(x * x + y * y + z * z);
+    };
+    double reach = 0;
+    if (c.shape == ColliderShape::Sphere) {
+      reach = c.radius;
+    } else if (c.shape == ColliderShape::Box) {
+      reach = length(c.size[0], c.size[1], c.size[2]) / 2;
+    } else if (c.shape == ColliderShape::Mesh) {
+      for (const auto& v : c.mesh.placedAt(c.position).vertices)
+        reach = std::max(reach,
+                         length(v[0] - c.position[0], v[1] - c.position[1], v[2] - c.position[2]));
+    } else {
+      continue;  // a half space or a drum reaches across the grid
+    }
+    double outside2 = 0;  // squared distance from the position to the grid's box
+    for (int a = 0; a < scene.authored_dimension; ++a) {
+      const double d = std::max({0.0, -c.position[a], c.position[a] - extent[a]});
+      outside2 += d * d;
+    }
+    if (!still || outside2 <= reach * reach) continue;
+    std::fprintf(stderr,
+                 "snowsim: warning: %s: colliders[%zu] lies wholly outside the grid (%.3g m "
+                 "beyond it, %.3g m across at most) and never moves: it touches no snow\n",
+                 scene.file.c_str(), i, std::sqrt(outside2) - reach, 2 * reach);
+  }
+}
+
 // --estimate: the cost before the run and the time from its first steps; writes nothing.
 void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
   const auto simulation = makeSimulation(scene, threads, world);
@@ -303,6 +340,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
   warnOfCoarseMeshColliders(scene);
+  warnOfCollidersOutsideTheGrid(scene);
   if (options.estimate_only) {
     alike = false;  // it steps
     return estimateOnly(scene, options.threads, world);

@@ -314,6 +314,26 @@ TEST(Cli, RunWarnsWhenTheStepCollapses) {
   EXPECT_EQ(r.output.find("warning"), r.output.rfind("warning")) << "once:\n" << r.output;
 }
 
+// A still collider placed wholly outside the grid touches no snow: the run says so and goes on.
+// One that reaches in, or moves, is not warned about.
+TEST(Cli, RunWarnsOfAStillColliderOutsideTheGrid) {
+  const fs::path out = freshDir("collider_outside");
+  const std::string run = "run " + scene("mpm_snowball_wall") + " -o " + out.string() +
+                          " --overwrite --estimate --threads 1 ";
+  Result r = runSnowsim(run + "--set 'colliders[0].position=[5,5,5]'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("colliders[0] lies wholly outside the grid (8.14 m beyond it"),
+            std::string::npos)
+      << r.output;
+  for (const char* inside :
+       {"", "--set 'colliders[0].position=[-0.02,0.1,0.08]'",
+        "--set 'colliders[0].position=[5,5,5]' --set 'colliders[0].velocity=[-10,-10,-10]'"}) {
+    r = runSnowsim(run + inside);
+    ASSERT_EQ(r.code, 0) << inside << ": " << r.output;
+    EXPECT_EQ(r.output.find("outside the grid"), std::string::npos) << inside << ": " << r.output;
+  }
+}
+
 TEST(Cli, ThreadsMustBeAWholeNumberFrom1To1024) {
   for (const char* bad : {"0", "abc", "1025", "-3", "2.5"})
     expectRejected("run " + scene("snowball_drop") + " --threads " + bad,

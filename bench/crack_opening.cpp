@@ -9,7 +9,11 @@
 //    ("Field-gradient partitioning for fracture and frictional contact in the material point
 //    method", IJNME 109): a particle goes to side 0 of a node when its damage gradient points the
 //    same way as the node's largest nearby damage gradient, else to side 1; the two sides share one
-//    velocity (their centre of mass's) only while they approach each other.
+//    velocity (their centre of mass's) only while they approach each other;
+//  - with --free-grains, snow with no strength left (s = 0) moves in a third field of its own at
+//    each node, as loose grains: it shares the intact snow's velocity only while the two approach
+//    (along the intact snow's outward normal at the node), so failed snow no longer ties the
+//    intact pieces on either side of it together.
 // Prints, per frame, the clump shares of `snowsim clumps`, and writes the frames as PLY into OUT
 // with the colliders' colliders.json (`snowsim render OUT` draws them).
 #include <algorithm>
@@ -41,23 +45,27 @@ Real strengthLeft(Real J_P, Real eps_f) {
   return J_P <= 1 ? 1 : std::max<Real>(0, 1 - std::log(J_P) / eps_f);
 }
 
-// The grid: per node, each side's mass and velocity, the mean damage, and the largest damage
-// gradient of the particles that reach it (the side's reference direction).
+// The grid: per node, each field's mass and velocity (sides 0 and 1 of the intact snow, and the
+// failed snow's grains), the mean damage, the largest damage gradient of the particles that reach
+// it (the side's reference direction), and the intact snow's outward normal (unnormalised).
+constexpr int kGrains = 2;
 struct TwoSidedGrid {
-  std::vector<Real> mass[2], damage;
-  std::vector<V> velocity[2], reference;
+  std::vector<Real> mass[3], damage;
+  std::vector<V> velocity[3], reference, intact_normal;
   std::vector<Real> reference_norm;
 
   explicit TwoSidedGrid(int nodes) {
-    for (int side = 0; side < 2; ++side)
-      mass[side].assign(nodes, 0), velocity[side].assign(nodes, V::Zero());
+    for (int field = 0; field < 3; ++field)
+      mass[field].assign(nodes, 0), velocity[field].assign(nodes, V::Zero());
     damage.assign(nodes, 0), reference.assign(nodes, V::Zero()), reference_norm.assign(nodes, 0);
+    intact_normal.assign(nodes, V::Zero());
   }
   void clear() {
-    for (int side = 0; side < 2; ++side) {
-      std::fill(mass[side].begin(), mass[side].end(), Real(0));
-      std::fill(velocity[side].begin(), velocity[side].end(), V::Zero());
+    for (int field = 0; field < 3; ++field) {
+      std::fill(mass[field].begin(), mass[field].end(), Real(0));
+      std::fill(velocity[field].begin(), velocity[field].end(), V::Zero());
     }
+    std::fill(intact_normal.begin(), intact_normal.end(), V::Zero());
     std::fill(damage.begin(), damage.end(), Real(0));
     std::fill(reference.begin(), reference.end(), V::Zero());
     std::fill(reference_norm.begin(), reference_norm.end(), Real(0));
@@ -72,10 +80,12 @@ struct Experiment {
   // Per particle, from the last return mapping: F_E's polar rotation, which the next scatter's
   // stress needs, and its SVD's V, where the next return mapping's SVD starts.
   std::vector<M> rotation, svd_v;
+  std::vector<char> failed;  // per particle, this step: no strength left, moved as a grain
   Real eps_f;
-  bool split;
+  bool split, free_grains;
 
   int sideOf(int p, int i) const {
+    if (failed[p]) return kGrains;
     if (!split || grid.reference_norm[i] <= 0) return 0;
     return damage_gradient[p].dot(grid.reference[i]) >= 0 ? 0 : 1;
   }
@@ -114,6 +124,7 @@ struct Experiment {
     const int n = s.x.size();
     placeColliders(s.colliders, s.time);
     grid.clear();
+    for (int p = 0; p < n; ++p) failed[p] = free_grains && strengthLeft(s.J_P[p], eps_f) <= 0;
     if (split) findSides(D_inv);
     for (int p = 0; p < n; ++p) {
       const Real left = strengthLeft(s.J_P[p], eps_f);
@@ -126,11 +137,12 @@ struct Experiment {
         const int side = sideOf(p, i);
         grid.mass[side][i] += w * s.m[p];
         grid.velocity[side][i] += w * (s.m[p] * s.v[p] + A * dx);
+        if (side != kGrains) grid.intact_normal[i] += w * s.m[p] * dx;
       });
     }
     for (int i = 0; i < s.grid.nodeCount(); ++i) {
       const V x_i = s.grid.position(s.grid.coords(i));
-      for (int side = 0; side < 2; ++side) {
+      for (int side = 0; side < 3; ++side) {
         V& v = grid.velocity[side][i];
         if (grid.mass[side][i] <= 0) {
           v.setZero();
@@ -145,6 +157,18 @@ struct Experiment {
       V& v1 = grid.velocity[1][i];
       if (m0 > 0 && m1 > 0 && (v0 - v1).dot(grid.reference[i]) > 0)
         v0 = v1 = (m0 * v0 + m1 * v1) / (m0 + m1);
+      // Grains meet the intact snow (both sides as one body) only while moving into it.
+      const Real m_g = grid.mass[kGrains][i];
+      if (m_g > 0 && m0 + m1 > 0) {
+        V& v_g = grid.velocity[kGrains][i];
+        const V v_intact = (m0 * v0 + m1 * v1) / (m0 + m1);
+        if ((v_g - v_intact).dot(grid.intact_normal[i]) < 0) {
+          const V common = (m_g * v_g + m0 * v0 + m1 * v1) / (m_g + m0 + m1);
+          v_g = common;
+          if (m0 > 0) v0 = common;
+          if (m1 > 0) v1 = common;
+        }
+      }
     }
     const M I = M::Identity();
     for (int p = 0; p < n; ++p) {
@@ -155,7 +179,7 @@ struct Experiment {
         const V& v_i = grid.velocity[sideOf(p, i)][i];
         v += w * v_i;
         B += w * v_i * dx.transpose();
-        node_mass += w * (grid.mass[0][i] + grid.mass[1][i]);
+        node_mass += w * (grid.mass[0][i] + grid.mass[1][i] + grid.mass[kGrains][i]);
       });
       density[p] = node_mass / (h * h * h);
       s.v[p] = v;
@@ -175,7 +199,7 @@ struct Options {
   std::string scene, out;
   std::vector<std::string> overrides;
   double dt = 0, eps_f = 0.2;
-  bool split = false;
+  bool split = false, free_grains = false;
 };
 
 void run(const Options& o) {
@@ -186,11 +210,20 @@ void run(const Options& o) {
   const Particles<D> particles = sampleBodies<D>(scene);
   // The frames' format (grid, colliders, masses, radii) from the solver's own first frame.
   Snapshot frame = makeSimulation(scene, 1)->snapshot(0);
-  Experiment e{
-      makeReferenceState<D>(scene, particles), TwoSidedGrid(0), {}, {}, {}, {}, o.eps_f, o.split};
+  Experiment e{makeReferenceState<D>(scene, particles),
+               TwoSidedGrid(0),
+               {},
+               {},
+               {},
+               {},
+               {},
+               o.eps_f,
+               o.split,
+               o.free_grains};
   e.grid = TwoSidedGrid(e.s.grid.nodeCount());
   e.damage_gradient.assign(e.s.x.size(), V::Zero());
   e.density.assign(e.s.x.size(), 0);
+  e.failed.assign(e.s.x.size(), 0);
   e.svd_v.assign(e.s.x.size(), M::Identity());
   for (const M& F_E : e.s.F_E) e.rotation.push_back(polarRotation<D>(F_E));
   for (int p = 0; p < frame.size(); ++p)  // the same particles in the same order
@@ -242,6 +275,8 @@ int main(int argc, char** argv) {
   app.add_option("--fracture-strain", o.eps_f, "ln J_P at which snow has no strength left")
       ->capture_default_str();
   app.add_flag("--split", o.split, "Two velocities a node across damaged snow");
+  app.add_flag("--free-grains", o.free_grains,
+               "Snow with no strength left moves as loose grains, a field of its own");
   CLI11_PARSE(app, argc, argv);
   try {
     snowsim::run(o);

@@ -50,11 +50,15 @@ std::set<std::string> pngNames(const std::string& dir) {
   return names;
 }
 
-// A report (--out, --json) written over an image it compares would replace the reference.
+// A report (--out, --json) written over an image it compares, or over the mask, would replace it.
 void refuseWritingOverAnInput(const char* option, const std::string& path, const std::string& a,
-                              const std::string& b, bool directories) {
+                              const std::string& b, const std::string& mask, bool directories) {
   std::error_code ec;
   if (path.empty() || !fs::exists(path, ec)) return;
+  if (!mask.empty() && fs::exists(mask, ec) && fs::equivalent(path, mask, ec))
+    throw InputError(std::string(option) + " " + path +
+                     ": is the --mask; write the report "
+                     "elsewhere");
   std::string extension = fs::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
   if (directories && extension != ".png") return;  // a directory's frames are its PNG files
@@ -153,10 +157,10 @@ void diff(const DiffOptions& options) {
   if (comparison.limits.directories && !options.out.empty())
     throw InputError("--out: writes the diff image of two images; for directories use --html");
   // Everything the user asked for is checked before the comparison, which may take a while.
-  refuseWritingOverAnInput("--out", options.out, options.a, options.b, false);
+  refuseWritingOverAnInput("--out", options.out, options.a, options.b, options.limits.mask, false);
   if (!options.out.empty() && fs::is_directory(options.out))
     throw InputError("--out " + options.out + ": is a directory; give the diff image's file name");
-  refuseWritingOverAnInput("--json", options.json, options.a, options.b,
+  refuseWritingOverAnInput("--json", options.json, options.a, options.b, options.limits.mask,
                            comparison.limits.directories);
   const Comparer comparer(options);
   if (!options.json.empty()) checkJsonReportPath(options.json);

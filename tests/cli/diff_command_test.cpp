@@ -248,6 +248,11 @@ TEST(DiffCommand, MaskLeavesItsDarkPixelsOut) {
   r = runSnowsim("diff " + a + " " + b + " --mask " + dark);
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_TRUE(contains(r.output, "--mask " + dark + ": every pixel is dark")) << r.output;
+  const std::string mask_bytes = bytesOf(mask);
+  r = runSnowsim("diff " + a + " " + b + " --mask " + mask + " --json " + mask);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_TRUE(contains(r.output, "--json " + mask + ": is the --mask")) << r.output;
+  EXPECT_EQ(bytesOf(mask), mask_bytes);
 }
 
 // A directory comparison in which no frame is in both directories compares nothing: it fails even

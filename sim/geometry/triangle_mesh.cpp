@@ -55,9 +55,8 @@ TriangleMesh readTriangles(const std::string& path) {
       // Beyond 1e9 (m, before any scale) no grid reaches: a corrupt number, not a shape.
       if (!(std::abs(point[0]) <= 1e9 && std::abs(point[1]) <= 1e9 && std::abs(point[2]) <= 1e9)) {
         std::ostringstream s;
-        s << "vertex " << v << " of mesh " << m << " is at (" << point[0] << ", " << point[1]
-          << ", " << point[2] << "): its coordinates must be finite numbers within 1e9 of the "
-          << "origin";
+        s << "a vertex is at (" << point[0] << ", " << point[1] << ", " << point[2]
+          << "): each coordinate must be a finite number between -1e9 and 1e9";
         fail(path, s.str());
       }
       const auto [it, added] = index_of.emplace(point, static_cast<int>(mesh.vertices.size()));

@@ -119,7 +119,7 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
       {"no_faces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "the mesh has no triangles"},
       {"degenerate.obj", cubeObj() + "v 2 2 2\nv 3 3 3\nv 4 4 4\nf 9 10 11\n", "degenerate"},
       {"nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-       "is at (nan, 0, 0): its coordinates must be finite numbers within 1e9 of the origin"},
+       "a vertex is at (nan, 0, 0): each coordinate must be a finite number between -1e9 and 1e9"},
       {"huge.obj", "v 1e30 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is at (1e+30, 0, 0)"},
   };
   for (const Case& c : cases) {

@@ -21,5 +21,8 @@ void addClumpsCommand(CLI::App& app);
 int reportFailure(const std::exception& e);
 // The exit code reportFailure gives, without the message.
 int exitCodeOf(const std::exception& e);
+// Whether this process is rank 0 of an mpirun launch, or not launched by mpirun at all; known
+// from mpirun's environment before MPI is started.
+bool launchedAsRankZero();
 
 }  // namespace snowsim

@@ -57,8 +57,7 @@ void refuseWritingOverAnInput(const char* option, const std::string& path, const
   if (path.empty() || !fs::exists(path, ec)) return;
   if (!mask.empty() && fs::exists(mask, ec) && fs::equivalent(path, mask, ec))
     throw InputError(std::string(option) + " " + path +
-                     ": is the --mask; write the report "
-                     "elsewhere");
+                     ": is the --mask; write the report elsewhere");
   std::string extension = fs::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
   if (directories && extension != ".png") return;  // a directory's frames are its PNG files

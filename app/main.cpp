@@ -49,10 +49,9 @@ int main(int argc, char** argv) {
   // A run across MPI ranks: every rank parses the same command line, and an error that reaches
   // here is one every rank met alike (one a rank meets alone ends every rank through MPI_Abort):
   // rank 0 alone says so. (Study shards under mpirun are independent runs: each speaks.)
-  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
   const bool distributed_run =
       argc > 1 && (std::string(argv[1]) == "run" || std::string(argv[1]) == "resume");
-  const bool quiet = distributed_run && rank && std::string(rank) != "0";
+  const bool quiet = distributed_run && !snowsim::launchedAsRankZero();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -69,6 +68,11 @@ int main(int argc, char** argv) {
 }
 
 namespace snowsim {
+
+bool launchedAsRankZero() {
+  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+  return !rank || std::string(rank) == "0";
+}
 
 int exitCodeOf(const std::exception& e) {
   return dynamic_cast<const InputError*>(&e) ? 2 : dynamic_cast<const SimulationError*>(&e) ? 3 : 4;

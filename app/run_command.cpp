@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <optional>
 
@@ -181,14 +180,11 @@ void warnOfCoarseMeshColliders(const Scene& scene) {
 // position in other units or a typo. Its bounding sphere about its origin, which its turning
 // leaves alone, against the grid's box.
 void warnOfCollidersOutsideTheGrid(const Scene& scene) {
-  const Vec3 extent = scene.extent();
+  const Vec3 extent = scene.extent(), zero{0, 0, 0};
+  const auto length = [](double x, double y, double z) { return std::sqrt(x * x + y * y + z * z); };
   for (size_t i = 0; i < scene.colliders.size(); ++i) {
     const ColliderParams& c = scene.colliders[i];
-    const Vec3 zero{0, 0, 0};
     const bool still = c.keyframes.empty() && c.velocity == zero && c.angular_velocity == zero;
-    const auto length = [](double x, double y, double z) {
-      return std::sqrt(x * x + y * y + z * z);
-    };
     double reach = 0;
     if (c.shape == ColliderShape::Sphere) {
       reach = c.radius;
@@ -623,8 +619,7 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
 // drop_video: the run goes on without its MP4 (resume --no-mp4), as if started with --no-mp4.
 void resume(const std::string& dir, int threads, bool drop_video) {
   // Before its checkpoint, which a running run rewrites; by rank 0 alone, which takes the lock.
-  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
-  if (!rank || std::string(rank) == "0") RunDirectoryLock::refuseIfHeld(dir);
+  if (launchedAsRankZero()) RunDirectoryLock::refuseIfHeld(dir);
   const SavedRun saved = loadCheckpoint(dir);
   RunOptions options;
   CLI::App parser;

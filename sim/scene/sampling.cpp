@@ -333,7 +333,7 @@ Particles<D> sampleBodies(const Scene& scene) {
         scene, index, from, to, [&](const Vec3& p) { return bodyContains(body, p, shape_dim); },
         particles);
   }
-  // A body wider than its spacing may still hold none (a mesh that is a thin shell).
+  // A body wider than its spacing may still hold none (a thin plate turned across the axes).
   std::vector<int> count(scene.bodies.size(), 0);
   for (int p = 0; p < particles.size(); ++p) ++count[particles.body[p]];
   for (size_t b = 0; b < count.size(); ++b)

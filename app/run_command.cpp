@@ -360,6 +360,18 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                          "rebuilt from it; `" + resume_command +
                          " --no-mp4` continues the run without the video");
     }
+  const auto start = std::chrono::steady_clock::now();
+  const auto wallTime = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  StageClock clock;  // this thread's stages; the solver times its own
+  std::unique_ptr<Simulation> simulation;
+  {
+    // Before the output directory is touched: a body that fills no particle is refused here,
+    // before --overwrite removes an earlier run. Every rank samples every body, so alike.
+    const StageClock::Scope time(&clock, "setup");
+    simulation = makeSimulation(scene, options.threads, world);
+  }
   std::string refused;
   std::optional<RunDirectoryLock> lock;  // held until the run ends
   if (writes) try {
@@ -370,18 +382,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
       refused = e.what();
     }
   if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
-  const auto start = std::chrono::steady_clock::now();
-  const auto wallTime = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
-  StageClock clock;  // this thread's stages; the solver times its own
-  std::unique_ptr<Simulation> simulation;
   FrameSinks sinks;
   {
     const StageClock::Scope time(&clock, "setup");
-    simulation = makeSimulation(scene, options.threads, world);
-    alike = false;  // each rank gathers its share, reads its share of a checkpoint; rank 0 alone
-                    // opens the outputs
+    alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
     if (saved) simulation->loadState(saved->solver_state, saved->file);
     if (options.ply && writes)

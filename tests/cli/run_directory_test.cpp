@@ -66,6 +66,47 @@ TEST(RunDirectory, AnEarlierRunIsRefusedOrWithOverwriteReplacedLeavingOtherFiles
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["frames"], 6);
 }
 
+// A scene refused at set-up (a body that fills no particle, found only by sampling it) leaves an
+// earlier run whole, --overwrite or not.
+TEST(RunDirectory, ASceneRefusedAtSetUpLeavesTheEarlierRunWhole) {
+  const fs::path out = freshDir("refused_at_set_up");
+  ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                       " --set time.duration=0.04 --no-png --no-mp4")
+                .code,
+            0);
+  const int frames = countFrames(out, ".ply");
+  ASSERT_GT(frames, 1);
+  // A plate 10 micrometres thick turned 45 degrees about z: wide along every axis, yet no point
+  // of the particle lattice falls inside it.
+  const fs::path inputs = freshDir("refused_at_set_up_inputs");
+  fs::create_directories(inputs);
+  std::ofstream plate(inputs / "plate.obj");
+  for (int corner = 0; corner < 8; ++corner)
+    plate << "v " << (corner & 4 ? 0.5 : -0.5) << " " << (corner & 2 ? 5e-6 : -5e-6) << " "
+          << (corner & 1 ? 0.5 : -0.5) << "\n";
+  plate << "f 1 2 4\nf 1 4 3\nf 5 7 8\nf 5 8 6\nf 1 5 6\nf 1 6 2\n"
+        << "f 3 4 8\nf 3 8 7\nf 1 3 7\nf 1 7 5\nf 2 6 8\nf 2 8 4\n";
+  plate.close();
+  std::ofstream(inputs / "plate.json")
+      << nlohmann::json{{"name", "plate"},
+                        {"dimension", 3},
+                        {"solver", "mpm"},
+                        {"grid", {{"cells", {20, 20, 20}}, {"cell_size", 0.01}}},
+                        {"particles_per_cell", 27},
+                        {"bodies",
+                         {{{"shape", "mesh"},
+                           {"mesh", (inputs / "plate.obj").string()},
+                           {"position", {0.1, 0.1, 0.1}},
+                           {"scale", 0.1},
+                           {"rotation", {0, 0, 45}}}}}};
+  const Result r = runSnowsim("run " + (inputs / "plate.json").string() + " -o " + out.string() +
+                              " --overwrite --no-png --no-mp4");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("bodies[0] holds no particles"), std::string::npos) << r.output;
+  EXPECT_EQ(countFrames(out, ".ply"), frames) << "the earlier run's frames are kept";
+  EXPECT_TRUE(fs::exists(out / "run.json"));
+}
+
 // An empty directory, or one with only other files, takes a run without --overwrite.
 TEST(RunDirectory, OtherFilesDoNotStopARun) {
   const fs::path out = freshDir("other_files");

@@ -177,11 +177,10 @@ void measure(const std::string& label, const Json& j, int steps, int reps, bool 
     rate2.push_back(run<D, T>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
-  // x, v; mass, volume, density, J_P; body, id, block, sorted order; F_E, C (3D: V_E); the stress;
-  // Lamé; the spare buffer the particles are sorted through, one array of the widest element (a
-  // matrix).
-  const size_t bytes = sizeof(Vec<D, T>) * 2 + sizeof(T) * 4 + sizeof(int) * 4 +
-                       sizeof(Mat<D, T>) * (D == 3 ? 4 : 3) + sizeof(Symmetric<D, T>) +
+  // x, v; mass, volume, density, J_P and the spare buffer the particles are sorted through (a
+  // scalar at a time); body, id, block, sorted order; F_E, C (3D: V_E); the stress; Lamé.
+  const size_t bytes = sizeof(Vec<D, T>) * 2 + sizeof(T) * 5 + sizeof(int) * 4 +
+                       sizeof(Mat<D, T>) * (D == 3 ? 3 : 2) + sizeof(Symmetric<D, T>) +
                        sizeof(LameOf<T>);
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f; "

@@ -3,7 +3,6 @@
 // the particles reorders every array.
 #pragma once
 
-#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -27,9 +26,6 @@ struct MpmParticles : Particles<D, T> {
   // Auto-sleep (mpm.auto_sleep): the steps in a row the particle and its stencil's nodes have
   // moved slower than the sleep speed; asleep once it reaches the sleep steps. Empty when off.
   std::vector<int> calm_steps;
-
-  // The element types of the arrays, for a reordering that needs a spare buffer of the widest.
-  using ElementTypes = std::tuple<Vec<D, T>, Mat<D, T>, Symmetric<D, T>, T, int, LameOf<T>>;
 
   MpmParticles() = default;
   // The snow starts unstrained: F_E = I, J_P = 1, no stress, no affine velocity.

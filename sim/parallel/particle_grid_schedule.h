@@ -14,11 +14,11 @@
 #include <array>
 #include <chrono>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <span>
 #include <string_view>
-#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -35,15 +35,16 @@
 
 namespace snowsim {
 
-// The size of the widest of the tuple's element types.
-template <class... Ts>
-constexpr size_t widestElement(std::tuple<Ts...>*) {
-  return std::max({sizeof(Ts)...});
+// The bytes of an element of `size` bytes that the sort permutes at once through a spare buffer of
+// `spare` bytes a particle: the largest divisor of size that fits.
+constexpr size_t sortPiece(size_t size, size_t spare) {
+  size_t piece = std::min(size, spare);
+  while (size % piece != 0) --piece;
+  return piece;
 }
 
 // P: the particle container, with its scalar type Scalar (the precision of the partial grids),
-// positions x, forEachArray(f) over every per-particle array, and ElementTypes, a tuple of the
-// element types those arrays have.
+// positions x, and forEachArray(f) over every per-particle array.
 template <int D, class P>
 class ParticleGridSchedule final : public LoopRunner {
  public:
@@ -207,12 +208,10 @@ class ParticleGridSchedule final : public LoopRunner {
   static constexpr int chunk = 64;  // particles of one term of orderedSum, in sorted order
 
   // Every per-particle array permuted into the sorted order of the last binning, one array after
-  // the other: gathered into the spare buffer, then copied back.
+  // the other and a scalar's bytes of each element at a time: gathered into the spare buffer,
+  // then copied back.
   void storeInSortedOrder(P& particles);
-  void resizeSpare() {
-    constexpr size_t widest = widestElement(static_cast<typename P::ElementTypes*>(nullptr));
-    spare_.resize((particles_ * widest + sizeof(SpareUnit) - 1) / sizeof(SpareUnit));
-  }
+  void resizeSpare() { spare_.resize(particles_); }
   void resizePartialGrid(PartialGrid& g) const {
     g.mass.resize(grid_.nodeCount());  // zero, untouched
     g.momentum.resize(grid_.nodeCount());
@@ -255,10 +254,9 @@ class ParticleGridSchedule final : public LoopRunner {
   StageClock clock_;
   long steps_ = 0;
   long stored_step_ = -sorted_storage_interval;
-  // The sort's target, as wide as one array of the widest element type (not one of each: it
-  // would cost more bytes per particle than the particles' widest arrays), aligned for any type.
-  using SpareUnit = std::max_align_t;
-  std::vector<SpareUnit> spare_;
+  // The sort's target, one scalar a particle: a matrix is permuted a scalar at a time, since a
+  // spare as wide as a matrix would cost more bytes a particle than most of the state's arrays.
+  std::vector<Scalar> spare_;
   std::vector<Real> chunk_sums_;
 };
 
@@ -459,15 +457,23 @@ void ParticleGridSchedule<D, P>::storeInSortedOrder(P& particles) {
     for (int o = chunkStart(first); o < chunkStart(last); ++o) f(o);
   };
   particles.forEachArray([&]<class E>(std::vector<E>& array) {
-    static_assert(sizeof(E) <= widestElement(static_cast<typename P::ElementTypes*>(nullptr)),
-                  "ElementTypes must list the type of every array");
+    constexpr size_t piece = sortPiece(sizeof(E), sizeof(Scalar));
+    using Piece = std::array<std::byte, piece>;
     if (array.empty()) return;
-    E* spare = reinterpret_cast<E*>(spare_.data());
-    team_.forEachPart("sort: gather", [&](int part) {
-      places(part, [&](int o) { spare[o] = array[binning_.sorted(o)]; });
-    });
-    team_.forEachPart("sort: copy back",
-                      [&](int part) { places(part, [&](int o) { array[o] = spare[o]; }); });
+    Piece* spare = reinterpret_cast<Piece*>(spare_.data());
+    std::byte* elements = reinterpret_cast<std::byte*>(array.data());
+    for (size_t offset = 0; offset < sizeof(E); offset += piece) {
+      team_.forEachPart("sort: gather", [&](int part) {
+        places(part, [&](int o) {
+          std::memcpy(&spare[o], elements + size_t(binning_.sorted(o)) * sizeof(E) + offset, piece);
+        });
+      });
+      team_.forEachPart("sort: copy back", [&](int part) {
+        places(part, [&](int o) {
+          std::memcpy(elements + size_t(o) * sizeof(E) + offset, &spare[o], piece);
+        });
+      });
+    }
   });
   // A part reads the order at its own places only: it may reset them once every array is stored.
   team_.forEachPart("sort: reset",

@@ -78,8 +78,8 @@ struct Experiment {
   std::vector<V> damage_gradient;  // per particle
   std::vector<Real> density;       // per particle, from the nodes' mass
   // Per particle, from the last return mapping: F_E's polar rotation, which the next scatter's
-  // stress needs, and its SVD's V, where the next return mapping's SVD starts.
-  std::vector<M> rotation, svd_v;
+  // stress needs.
+  std::vector<M> rotation;
   std::vector<char> failed;  // per particle, this step: no strength left, moved as a grain
   Real eps_f;
   bool split, free_grains;
@@ -185,7 +185,7 @@ struct Experiment {
       s.v[p] = v;
       s.C[p] = D_inv * B;
       s.F_E[p] = (I + dt * s.C[p]) * s.F_E[p];
-      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], rotation[p], svd_v[p]);
+      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], rotation[p]);
       for (const Collider<D>& c : s.colliders) c.collide(s.x[p], s.v[p]);
       s.x[p] += dt * s.v[p];
       for (const Collider<D>& c : s.colliders) c.pushOut(s.x[p]);
@@ -216,7 +216,6 @@ void run(const Options& o) {
                {},
                {},
                {},
-               {},
                o.eps_f,
                o.split,
                o.free_grains};
@@ -224,7 +223,6 @@ void run(const Options& o) {
   e.damage_gradient.assign(e.s.x.size(), V::Zero());
   e.density.assign(e.s.x.size(), 0);
   e.failed.assign(e.s.x.size(), 0);
-  e.svd_v.assign(e.s.x.size(), M::Identity());
   for (const M& F_E : e.s.F_E) e.rotation.push_back(polarRotation<D>(F_E));
   for (int p = 0; p < frame.size(); ++p)  // the same particles in the same order
     for (int a = 0; a < 3; ++a)

@@ -178,10 +178,9 @@ void measure(const std::string& label, const Json& j, int steps, int reps, bool 
     ratio.push_back(rate2.back() / rate1.back());
   }
   // x, v; mass, volume, density, J_P and the spare buffer the particles are sorted through (a
-  // scalar at a time); body, id, block, sorted order; F_E, C (3D: V_E); the stress; Lamé.
+  // scalar at a time); body, id, block, sorted order; F_E, C; the stress; Lamé.
   const size_t bytes = sizeof(Vec<D, T>) * 2 + sizeof(T) * 5 + sizeof(int) * 4 +
-                       sizeof(Mat<D, T>) * (D == 3 ? 3 : 2) + sizeof(Symmetric<D, T>) +
-                       sizeof(LameOf<T>);
+                       sizeof(Mat<D, T>) * 2 + sizeof(Symmetric<D, T>) + sizeof(LameOf<T>);
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f; "
       "two solvers side by side x%.2f), bit-identical: %s, %zu bytes/particle, binned %ld "

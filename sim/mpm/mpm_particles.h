@@ -19,7 +19,6 @@ struct MpmParticles : Particles<D, T> {
   // scatter spreads: computed where F_E and its rotation are at hand; a third of the F_E and
   // rotation the scatter would otherwise read.
   std::vector<Symmetric<D, T>> tau;
-  std::vector<Mat<D, T>> V_E;   // 3D: its right singular vectors, the next SVD's starting guess
   std::vector<T> J_P;           // det F_P, plastic volume ratio
   std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
   std::vector<LameOf<T>> lame;  // hardened Lamé parameters (eq. 8), refreshed with J_P
@@ -34,18 +33,16 @@ struct MpmParticles : Particles<D, T> {
     const int n = this->size();
     F_E.assign(n, Mat<D, T>::Identity());
     tau.assign(n, Symmetric<D, T>{});
-    if constexpr (D == 3) V_E.assign(n, Mat<D, T>::Identity());
     J_P.assign(n, 1);
     C.assign(n, Mat<D, T>::Zero());
     lame.assign(n, hardenedLame<T>(material, 1));
   }
 
-  // Every array, empty ones included (V_E in 2D, calm_steps without auto-sleep): a reordering
-  // skips those.
+  // Every array, empty ones included (calm_steps without auto-sleep): a reordering skips those.
   template <class F>
   void forEachArray(F&& f) {
     Particles<D, T>::forEachArray(f);
-    f(F_E), f(tau), f(V_E), f(J_P), f(C), f(lame), f(calm_steps);
+    f(F_E), f(tau), f(J_P), f(C), f(lame), f(calm_steps);
   }
 };
 

@@ -555,8 +555,7 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
                              particles_.lame.data(), particles_.tau.data(), isa);
   else
     plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(), nullptr,
-                             particles_.V_E.data(), particles_.lame.data(), particles_.tau.data(),
-                             isa);
+                             particles_.lame.data(), particles_.tau.data(), isa);
   // The damper's stress from this step's velocity gradient, which C holds in every transfer.
   if (material_.viscosity > 0)
     for (const int p : ps) addDamperStress(p, 1);

@@ -85,12 +85,7 @@ void referenceStep(ReferenceState<D>& s, Real dt) {
     // Clamp the singular values of F_E to [1 - theta_c, 1 + theta_s], the rest into J_P (section
     // 5); the rotation it returns is not kept, P2G computes it anew.
     Mat<D> R_E;
-    if constexpr (D == 2) {
-      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], R_E);
-    } else {
-      Mat<D> V_E = I;  // the SVD's starting guess: none
-      s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], R_E, V_E);
-    }
+    s.J_P[p] = plasticReturnMappingJ(s.material, s.F_E[p], s.J_P[p], R_E);
     for (const Collider<D>& c : s.colliders) c.collide(s.x[p], s.v[p]);  // step 9, section 8
     s.x[p] += dt * s.v[p];                                               // step 10
     for (const Collider<D>& c : s.colliders) c.pushOut(s.x[p]);

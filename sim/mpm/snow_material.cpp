@@ -275,7 +275,7 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identit
 // Newton's iteration X <- (X + X^-T) / 2 (Higham 1986), started from F itself, squares the distance
 // of each singular value from 1 per iteration, so the few percent that snow's F_E strays from a
 // rotation take about four iterations to round-off; the particles whose singular values leave
-// their bounds take the warm-started Jacobi SVD, in lanes of their own. One particle's iteration is
+// their bounds take the Jacobi SVD, in lanes of their own. One particle's iteration is
 // a chain of dependent divisions and square roots; eight in lanes overlap their chains. Each lane
 // stops when its own iteration converges, so a particle's result does not depend on the others in
 // its batch. The helpers below are always inlined and local to this file: the calling convention
@@ -381,6 +381,13 @@ template <class T>
 SNOWSIM_LANES_INLINE Mat3Lanes<T> loadLanes(const Mat<3, T>* M, std::span<const int> ps) {
   Mat3Lanes<T> out;
   loadLanes<3, T>(M, ps, out.a);
+  return out;
+}
+template <class T>
+SNOWSIM_LANES_INLINE Mat3Lanes<T> identityLanes() {
+  Mat3Lanes<T> out;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out.a[i][j] = Lanes<T>{} + T(i == j);
   return out;
 }
 template <class T>
@@ -499,7 +506,7 @@ SNOWSIM_LANES_INLINE void normalizeLanes(Lanes<T> (&v)[3], Lanes<T> norm) {
 
 // The 3x3 SVD F = U diag(sigma) V^T in every lane, from the eigenvectors of F^T F found by Jacobi
 // rotations starting from the guess V (in/out): V the eigenvectors ordered by decreasing
-// eigenvalue, re-orthonormalised so it stays a rotation over many warm-started steps; then U by
+// eigenvalue, re-orthonormalised so that it is a rotation to round-off; then U by
 // Gram-Schmidt on the columns of F V, which stays orthonormal when singular values nearly
 // coincide; the last singular value takes the sign of det F.
 template <class T>
@@ -594,15 +601,17 @@ SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3L
 }
 
 // Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
-// (eq. 11), V_E the starting guess; R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial /
-// J_clamped (as in 2D), the Lamé parameters hardened anew and the stress of the new F_E.
+// (eq. 11), started from the identity; R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial
+// / J_clamped (as in 2D), the Lamé parameters hardened anew and the stress of the new F_E.
 template <class T>
 SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
                                                    const int* at, Mat<3, T>* F_E, T* J_P,
-                                                   Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame,
+                                                   Mat<3, T>* R_E, LameOf<T>* lame,
                                                    Symmetric<3, T>* tau, T lo, T hi) {
   const Mat3Lanes<T> F = loadLanes(F_E, ps);
-  Mat3Lanes<T> U, V = loadLanes(V_E, ps);
+  // No starting guess is kept per particle: from the identity the SVD takes a few Jacobi sweeps
+  // more, about what keeping and sorting 36 bytes a particle costs.
+  Mat3Lanes<T> U, V = identityLanes<T>();
   Lanes<T> sigma[3];
   svdLanes(F, U, sigma, V);
   const Lanes<T> J_trial = sigma[0] * sigma[1] * sigma[2];
@@ -620,7 +629,6 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
     const int p = ps[l];
     storeLane(new_F_E, l, F_E[p]);
     if (R_E) storeLane(rotation, l, R_E[at[l]]);
-    storeLane(V, l, V_E[p]);
     const T J_P_before = J_P[p];
     J_P[p] = J_P[p] * J_trial[l] / J_clamped[l];
     // Hardening depends on J_P alone: no exp while it stays as it is.
@@ -635,8 +643,8 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
 // gathered into lanes of their own for the SVD.
 template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E,
-                                     T* J_P, Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame,
-                                     Symmetric<3, T>* tau, T lo, T hi) {
+                                     T* J_P, Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau,
+                                     T lo, T hi) {
   int beyond[returnMappingBatch], beyond_at[returnMappingBatch];
   int count = 0;
   for (size_t first = 0; first < ps.size(); first += lanes) {
@@ -661,7 +669,7 @@ SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int>
   for (int first = 0; first < count; first += lanes)
     clampSingularValuesLanes(m,
                              std::span<const int>(beyond + first, std::min(lanes, count - first)),
-                             beyond_at + first, F_E, J_P, R_E, V_E, lame, tau, lo, hi);
+                             beyond_at + first, F_E, J_P, R_E, lame, tau, lo, hi);
 }
 
 // The arrays of the 3D return mapping, for the builds below.
@@ -670,7 +678,6 @@ struct MappingArrays {
   Mat<3, T>* F_E;
   T* J_P;
   Mat<3, T>* R_E;
-  Mat<3, T>* V_E;
   LameOf<T>* lame;
   Symmetric<3, T>* tau;
 };
@@ -678,7 +685,7 @@ struct MappingArrays {
 template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps,
                                      const MappingArrays<T>& a) {
-  mapInLanes(m, ps, a.F_E, a.J_P, a.R_E, a.V_E, a.lame, a.tau, T(1 - m.theta_c), T(1 + m.theta_s));
+  mapInLanes(m, ps, a.F_E, a.J_P, a.R_E, a.lame, a.tau, T(1 - m.theta_c), T(1 + m.theta_s));
 }
 template <class T>
 void returnMappingBaseline(const SnowMaterial& m, std::span<const int> ps,
@@ -809,14 +816,13 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2
 
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame, Symmetric<3, T>* tau,
-                           VectorIsa isa) {
+                           Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau, VectorIsa isa) {
   // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
   // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
   for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> batch =
         ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-    const MappingArrays<T> arrays{F_E, J_P, R_E ? R_E + first : nullptr, V_E, lame, tau};
+    const MappingArrays<T> arrays{F_E, J_P, R_E ? R_E + first : nullptr, lame, tau};
     switch (isa) {
       case VectorIsa::avx512:
         returnMappingAvx512(m, batch, arrays);
@@ -833,11 +839,11 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3
 
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
-                        Mat<3, T>& R_E, Mat<3, T>& V_E) {
+                        Mat<3, T>& R_E) {
   const int first = 0;
   LameOf<T> lame = hardenedLame<T>(m, J_P);  // the lanes harden it and take the stress: unused here
   Symmetric<3, T> tau;
-  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &V_E, &lame, &tau,
+  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &lame, &tau,
                            vectorIsa());
   return J_P;
 }
@@ -853,10 +859,9 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
   template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);                \
   template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);                \
   template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);             \
-  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&, Mat<3, T>&); \
+  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&);             \
   template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*,    \
-                                         T*, Mat<3, T>*, Mat<3, T>*, LameOf<T>*, Symmetric<3, T>*, \
-                                         VectorIsa);                                               \
+                                         T*, Mat<3, T>*, LameOf<T>*, Symmetric<3, T>*, VectorIsa); \
   template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<2, T>*,    \
                                          T*, LameOf<T>*, Symmetric<2, T>*, VectorIsa);
 SNOWSIM_SNOW_MATERIAL(double)

@@ -124,15 +124,14 @@ Real plasticReturnMapping(const SnowMaterial& m, Mat<D>& F_E, Mat<D>& F_P);
 // needs: one decomposition per particle per step instead of two. F_E is left bit for bit as it is
 // when no singular value is clamped. 2D works in closed form through the polar decomposition. 3D
 // finds the polar rotation by Newton's iteration and needs an SVD only when a singular value
-// leaves its bounds; V_E holds the right singular vectors of the last SVD, the next one's starting
-// guess.
+// leaves its bounds.
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<2, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<2, T>& R_E);
 template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
-                        Mat<3, T>& R_E, Mat<3, T>& V_E);
-// The 3D one for particles ps of the arrays F_E, J_P and V_E, with the results of the call above
+                        Mat<3, T>& R_E);
+// The 3D one for particles ps of the arrays F_E and J_P, with the results of the call above
 // for each, the rotations in the order of ps (R_E[i] that of particle ps[i]; none if R_E is
 // null), and, so that no rotation need be kept per particle, each one's Lamé parameters hardened
 // anew where J_P changed and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a
@@ -143,8 +142,7 @@ inline constexpr int returnMappingLanes = 8;
 inline constexpr int returnMappingBatch = 64;
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, Mat<3, T>* V_E, LameOf<T>* lame, Symmetric<3, T>* tau,
-                           VectorIsa isa);
+                           Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau, VectorIsa isa);
 
 // The 2D one for particles ps, the rotations not kept: each particle's F_E and J_P as the call
 // above leaves them, its Lamé parameters hardened anew where J_P changed and its Kirchhoff stress

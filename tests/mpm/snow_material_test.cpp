@@ -115,8 +115,8 @@ TEST(SnowMaterial, ReturnMappingClampsAndKeepsTotalDeformation) {
   }
   EXPECT_LT((F_E * F_P - F).norm(), 1e-12);
   EXPECT_NEAR(J_P, F_P.determinant(), 1e-12);
-  Mat<3> F_E2 = F, R_E, V_E = Mat<3>::Identity();
-  EXPECT_NEAR(plasticReturnMappingJ(m, F_E2, 1.0, R_E, V_E), J_P, 1e-12);
+  Mat<3> F_E2 = F, R_E;
+  EXPECT_NEAR(plasticReturnMappingJ(m, F_E2, 1.0, R_E), J_P, 1e-12);
   EXPECT_LT((R_E - polarRotation<3>(F_E2)).norm(), 1e-12) << "the rotation of the new F_E";
   EXPECT_LT(J_P, 1);  // compressed overall: compaction goes into J_P
 }
@@ -203,8 +203,8 @@ TEST(SnowMaterial, ThreeDimensionalReturnMappingMatchesTheSvdDefinition) {
   const std::vector<Mat<3>> cases = returnMappingCases(m);
   int elastic = 0;
   for (const Mat<3>& F : cases) {
-    Mat<3> F_E = F, R_E, V_E = Mat<3>::Identity();
-    const Real J_P = plasticReturnMappingJ(m, F_E, 0.8, R_E, V_E);
+    Mat<3> F_E = F, R_E;
+    const Real J_P = plasticReturnMappingJ(m, F_E, 0.8, R_E);
     if (expectSvdDefinition<3>(m, F, F_E, J_P, R_E, 1e-12)) {
       ++elastic;
       EXPECT_EQ(J_P, 0.8);
@@ -225,17 +225,17 @@ void expectBatchesMatchOneAtATime() {
   std::vector<Mat<3, T>> F;
   for (const Mat<3>& c : returnMappingCases(m)) F.push_back(c.cast<T>());
   const int n = int(F.size());
-  std::vector<Mat<3, T>> F_alone = F, R_alone(n), V_alone(n, Mat<3, T>::Identity());
+  std::vector<Mat<3, T>> F_alone = F, R_alone(n);
   std::vector<T> J_alone(n, T(0.8));
   const VectorIsa best = vectorIsa();
   vectorIsa() = VectorIsa::baseline;
   for (int p = 0; p < n; ++p)
-    J_alone[p] = plasticReturnMappingJ<T>(m, F_alone[p], J_alone[p], R_alone[p], V_alone[p]);
+    J_alone[p] = plasticReturnMappingJ<T>(m, F_alone[p], J_alone[p], R_alone[p]);
   vectorIsa() = best;
   std::vector<Symmetric<3, T>> first_tau;
   for (const VectorIsa isa : {VectorIsa::baseline, VectorIsa::avx2, VectorIsa::avx512}) {
     if (isa > best) continue;
-    std::vector<Mat<3, T>> F_E = F, R_E(n), V_E(n, Mat<3, T>::Identity());
+    std::vector<Mat<3, T>> F_E = F, R_E(n);
     std::vector<T> J_P(n, T(0.8));
     std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
     std::vector<Symmetric<3, T>> tau(n);
@@ -246,8 +246,8 @@ void expectBatchesMatchOneAtATime() {
     for (int first = 0, k = 0; first < n; first += sizes[k], k = (k + 1) % std::size(sizes)) {
       const std::span<const int> batch(order.data() + first, std::min(sizes[k], n - first));
       std::vector<Mat<3, T>> rotations(batch.size());  // in the batch's order
-      plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), rotations.data(), V_E.data(),
-                               lame.data(), tau.data(), isa);
+      plasticReturnMappingJ<T>(m, batch, F_E.data(), J_P.data(), rotations.data(), lame.data(),
+                               tau.data(), isa);
       for (size_t i = 0; i < batch.size(); ++i) R_E[batch[i]] = rotations[i];
     }
     const double tolerance = std::is_same_v<T, float> ? 1e-5 : 1e-12;
@@ -255,7 +255,6 @@ void expectBatchesMatchOneAtATime() {
       EXPECT_EQ(F_E[p], F_alone[p]) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(J_P[p], J_alone[p]) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(R_E[p], R_alone[p]) << "case " << p << ", build " << int(isa);
-      EXPECT_EQ(V_E[p], V_alone[p]) << "case " << p << ", build " << int(isa);
       const LameOf<T> hardened = hardenedLame<T>(m, J_P[p]);
       EXPECT_EQ(lame[p].mu, hardened.mu) << "case " << p << ", build " << int(isa);
       EXPECT_EQ(lame[p].lambda, hardened.lambda) << "case " << p << ", build " << int(isa);
@@ -274,18 +273,16 @@ void expectBatchesMatchOneAtATime() {
   // Asked for no rotations (as the solver asks), the rest comes out the same on every build.
   for (const VectorIsa isa : {VectorIsa::baseline, VectorIsa::avx2, VectorIsa::avx512}) {
     if (isa > best) continue;
-    std::vector<Mat<3, T>> F_E = F, V_E(n, Mat<3, T>::Identity());
+    std::vector<Mat<3, T>> F_E = F;
     std::vector<T> J_P(n, T(0.8));
     std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
     std::vector<Symmetric<3, T>> tau(n);
     std::vector<int> all(n);
     std::iota(all.begin(), all.end(), 0);
-    plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), nullptr, V_E.data(), lame.data(),
-                             tau.data(), isa);
+    plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), nullptr, lame.data(), tau.data(), isa);
     for (int p = 0; p < n; ++p) {
       EXPECT_EQ(F_E[p], F_alone[p]) << "case " << p << ", no rotations, build " << int(isa);
       EXPECT_EQ(J_P[p], J_alone[p]) << "case " << p << ", no rotations, build " << int(isa);
-      EXPECT_EQ(V_E[p], V_alone[p]) << "case " << p << ", no rotations, build " << int(isa);
       EXPECT_EQ(tau[p].upper, first_tau[p].upper) << "case " << p << ", no rotations";
     }
   }
@@ -387,14 +384,14 @@ void expectDegenerateMappedSanely() {
       T(0.97) * Mat<3, T>::Identity(),                 // elastic, in the same batch
   };
   const int n = int(cases.size());
-  std::vector<Mat<3, T>> F_E = cases, R_E(n), V_E(n, Mat<3, T>::Identity());
+  std::vector<Mat<3, T>> F_E = cases, R_E(n);
   std::vector<T> J_P(n, T(0.8));
   std::vector<int> all(n);
   std::iota(all.begin(), all.end(), 0);
   std::vector<LameOf<T>> lame(n, hardenedLame<T>(m, T(0.8)));
   std::vector<Symmetric<3, T>> tau(n);
-  plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), R_E.data(), V_E.data(), lame.data(),
-                           tau.data(), vectorIsa());
+  plasticReturnMappingJ<T>(m, all, F_E.data(), J_P.data(), R_E.data(), lame.data(), tau.data(),
+                           vectorIsa());
   const double tolerance = std::is_same_v<T, float> ? 1e-5 : 1e-12;
   for (int p = 0; p < n; ++p) {
     EXPECT_TRUE(std::isfinite(J_P[p])) << "case " << p;

@@ -1,8 +1,11 @@
 #include "sim/geometry/triangle_mesh.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -33,6 +36,47 @@ double norm(const Point& a) {
 
 [[noreturn]] void fail(const std::string& path, const std::string& problem) {
   throw InputError(path + ": " + problem);
+}
+
+// An STL cut short (a copy or a download that stopped), which assimp reports only as a storage
+// format it cannot tell. A binary STL is an 80-byte header, a triangle count N (u32) and 50 bytes a
+// triangle; an ASCII one starts with "solid" (as some binary headers do too) and ends with
+// "endsolid".
+void refuseCutShortStl(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (extension != ".stl") return;
+  std::ifstream in(path, std::ios::binary);
+  const auto size = static_cast<std::uintmax_t>(std::filesystem::file_size(path));
+  std::string head(std::min<std::uintmax_t>(size, 84), '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  std::uint32_t triangles = 0;
+  for (int b = 0; b < 4 && size >= 84; ++b)
+    triangles |= std::uint32_t(static_cast<unsigned char>(head[80 + b])) << (8 * b);
+  const std::uintmax_t needed = 84 + 50 * std::uintmax_t(triangles);
+  if (size >= 84 && size == needed) return;  // a whole binary STL
+  const size_t start = head.find_first_not_of(" \t\r\n");
+  if (start != std::string::npos && head.compare(start, 5, "solid") == 0) {
+    std::string tail(std::min<std::uintmax_t>(size, 256), '\0');
+    in.seekg(std::streamoff(size - tail.size()));
+    in.read(tail.data(), std::streamsize(tail.size()));
+    if (tail.find("endsolid") == std::string::npos)
+      fail(path,
+           "an ASCII STL ends with \"endsolid\" and this one does not: the file ends early "
+           "(was it cut short in a copy or a download?)");
+    return;
+  }
+  if (size < 84)
+    fail(path,
+         "a binary STL starts with an 84-byte header (80 bytes and the triangle count); the "
+         "file has " +
+             std::to_string(size) + " bytes");
+  if (size < needed)
+    fail(path, "a binary STL of " + std::to_string(triangles) +
+                   " triangles (its header's count) takes 84 + 50 x " + std::to_string(triangles) +
+                   " = " + std::to_string(needed) + " bytes and the file has " +
+                   std::to_string(size) +
+                   ": it ends early (was it cut short in a copy or a download?)");
 }
 
 // Every triangle of every mesh of the file, vertices merged by exact position.
@@ -147,6 +191,7 @@ TriangleMesh loadTriangleMesh(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, error))
     fail(path, "no such mesh file (a closed triangle mesh: OBJ, STL or PLY)");
   if (std::filesystem::file_size(path, error) == 0) fail(path, "the file is empty");
+  refuseCutShortStl(path);
   TriangleMesh mesh = readTriangles(path);
   checkTriangles(mesh, path);
   checkWatertight(mesh, path);

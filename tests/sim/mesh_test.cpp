@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -106,6 +107,13 @@ TEST(TriangleMesh, PlacementScalesThenRotatesThenMoves) {
 }
 
 // Each bad mesh stops the scene with the mesh file named and what is wrong with it.
+// The 84 bytes that open a binary STL of `triangles` triangles.
+std::string binaryStlHeader(std::uint32_t triangles) {
+  std::string header(80, ' ');
+  for (int b = 0; b < 4; ++b) header += char((triangles >> (8 * b)) & 0xff);
+  return header;
+}
+
 TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   struct Case {
     std::string file, text, problem;
@@ -121,6 +129,14 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
       {"nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
        "a vertex is at (nan, 0, 0): each coordinate must be a finite number between -1e9 and 1e9"},
       {"huge.obj", "v 1e30 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is at (1e+30, 0, 0)"},
+      // Cut short: a binary STL whose header counts 12 triangles and holds 2, one shorter than
+      // its header, and an ASCII STL without its end.
+      {"cut.stl", binaryStlHeader(12) + std::string(100, '\0'),
+       "a binary STL of 12 triangles (its header's count) takes 84 + 50 x 12 = 684 bytes and the "
+       "file has 184: it ends early"},
+      {"stub.stl", std::string(60, '\0'), "a binary STL starts with an 84-byte header"},
+      {"cut_ascii.stl", "solid cube\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n",
+       "an ASCII STL ends with \"endsolid\" and this one does not: the file ends early"},
   };
   for (const Case& c : cases) {
     const fs::path path = writeFile(c.file, c.text);

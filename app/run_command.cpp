@@ -307,7 +307,7 @@ Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
 
 // alike: set false once an error could be one rank's alone; until then an InputError is met by
 // every rank at the same point (the scene, the settings, the output directory's agreed refusal,
-// the solver's set-up).
+// the solver's set-up, the agreed removal of an earlier run).
 void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
   // stderr goes nowhere (an error they meet, rank 0 meets too).
@@ -360,6 +360,22 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                          "rebuilt from it; `" + resume_command +
                          " --no-mp4` continues the run without the video");
     }
+  // Rank 0 handles the output directory, the others wait for its verdict.
+  const auto onTheOutputDirectory = [&](auto&& handle) {
+    std::string refused;
+    if (writes) try {
+        handle();
+      } catch (const std::exception& e) {  // a file system error too
+        refused = e.what();
+      }
+    if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
+  };
+  std::optional<RunDirectoryLock> lock;  // held until the run ends
+  onTheOutputDirectory([&] {
+    prepareOutputDirectory(options.out);
+    lock.emplace(options.out);
+    if (!saved) prepareRunDirectory(options.out, video_name, options.overwrite);
+  });
   const auto start = std::chrono::steady_clock::now();
   const auto wallTime = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -367,21 +383,13 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   StageClock clock;  // this thread's stages; the solver times its own
   std::unique_ptr<Simulation> simulation;
   {
-    // Before the output directory is touched: a body that fills no particle is refused here,
-    // before --overwrite removes an earlier run. Every rank samples every body, so alike.
+    // Every rank samples every body, so a body that fills no particle is refused alike; and before
+    // --overwrite removes an earlier run.
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads, world);
+    if (!saved && options.overwrite)
+      onTheOutputDirectory([&] { removeEarlierRun(options.out, video_name); });
   }
-  std::string refused;
-  std::optional<RunDirectoryLock> lock;  // held until the run ends
-  if (writes) try {
-      prepareOutputDirectory(options.out);
-      lock.emplace(options.out);
-      if (!saved) prepareRunDirectory(options.out, video_name, options.overwrite);
-    } catch (const std::exception& e) {  // a file system error too: the others wait below
-      refused = e.what();
-    }
-  if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
   FrameSinks sinks;
   {
     const StageClock::Scope time(&clock, "setup");

@@ -82,15 +82,18 @@ std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& vi
 
 void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite) {
   prepareOutputDirectory(dir);
+  if (overwrite) return;
   std::vector<fs::path> files = earlierRunFiles(dir, video);
-  if (!overwrite) {
-    // Leftover temporaries are replaced as the run writes; only finished files are in the way.
-    std::erase_if(files, [](const fs::path& f) { return f.extension() == kTemporary; });
-    if (files.empty()) return;
-    throw InputError(dir + ": holds an earlier run (" + describe(files) +
-                     "); choose another --out, or pass --overwrite to remove these files (and "
-                     "only these) first");
-  }
+  // Leftover temporaries are replaced as the run writes; only finished files are in the way.
+  std::erase_if(files, [](const fs::path& f) { return f.extension() == kTemporary; });
+  if (files.empty()) return;
+  throw InputError(dir + ": holds an earlier run (" + describe(files) +
+                   "); choose another --out, or pass --overwrite to remove these files (and "
+                   "only these) first");
+}
+
+void removeEarlierRun(const std::string& dir, const std::string& video) {
+  const std::vector<fs::path> files = earlierRunFiles(dir, video);
   if (files.empty()) return;
   for (const fs::path& file : files) {
     std::error_code ec;

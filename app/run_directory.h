@@ -15,9 +15,12 @@ std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& 
                                                    const std::string& video);
 
 // Readies dir for a run: creates it and checks it is writable. When it holds an earlier run's
-// frames, run.json or video, throws InputError listing them unless `overwrite`; with it, removes
-// exactly those files (temporaries included) and says on stderr what it removed.
+// frames, run.json or video, throws InputError listing them unless `overwrite`.
 void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite);
+
+// For --overwrite, once nothing can refuse the run any more: removes exactly the earlier run's
+// files (temporaries included) and says on stderr what it removed.
+void removeEarlierRun(const std::string& dir, const std::string& video);
 
 // Holds dir for one run (or resume) while it lives: a second run, or a resume, given the same
 // directory is refused instead of writing its frames among this one's. A lock on dir/.snowsim.lock

@@ -96,10 +96,9 @@ void svd2(const Mat<2, T>& F, Mat<2, T>& U, Vec<2, T>& sigma, Mat<2, T>& V) {
 }
 
 // Diagonalises the symmetric 3x3 A by cyclic Jacobi rotations (Golub and Van Loan, section
-// 8.5), accumulating them into V: V^T A_in V = A_out. From a good guess (A nearly diagonal) one
-// or two sweeps finish it; from any start at most a handful. A rotation is skipped once its
-// off-diagonal entry no longer changes the diagonal (|a_pq| <= 1e-16 sqrt(a_pp a_qq) for the
-// positive semi-definite A here), which also ends the sweeps.
+// 8.5), accumulating them into V: V^T A_in V = A_out. A handful of sweeps finish it. A rotation is
+// skipped once its off-diagonal entry no longer changes the diagonal (|a_pq| <= 1e-16 sqrt(a_pp
+// a_qq) for the positive semi-definite A here), which also ends the sweeps.
 template <class T>
 void jacobiEigen3(Mat<3, T>& A, Mat<3, T>& V) {
   constexpr int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
@@ -133,15 +132,14 @@ void jacobiEigen3(Mat<3, T>& A, Mat<3, T>& V) {
   }
 }
 
-// 3x3 SVD from the eigenvectors of F^T F, found by Jacobi rotations starting from the guess V
-// (in/out): V the eigenvectors ordered by decreasing eigenvalue, re-orthonormalised so it stays a
-// rotation over many warm-started steps; then U by Gram-Schmidt on the columns of F V, which
-// stays orthonormal when singular values nearly coincide; the last singular value takes the
-// sign of det F.
+// 3x3 SVD from the eigenvectors of F^T F, found by Jacobi rotations: V the eigenvectors ordered by
+// decreasing eigenvalue, re-orthonormalised so that it is a rotation to round-off; then U by
+// Gram-Schmidt on the columns of F V, which stays orthonormal when singular values nearly
+// coincide; the last singular value takes the sign of det F.
 template <class T>
 void svd3(const Mat<3, T>& F, Mat<3, T>& U, Vec<3, T>& sigma, Mat<3, T>& V) {
-  Mat<3, T> FV = F * V;
-  Mat<3, T> A = FV.transpose() * FV;  // V^T F^T F V, nearly diagonal for a good guess
+  Mat<3, T> A = F.transpose() * F;
+  V.setIdentity();
   jacobiEigen3(A, V);
   // Decreasing eigenvalues; a swap of two columns negates one so that V stays a rotation.
   auto order = [&](int i, int j) {
@@ -157,7 +155,7 @@ void svd3(const Mat<3, T>& F, Mat<3, T>& U, Vec<3, T>& sigma, Mat<3, T>& V) {
   V.col(0).normalize();
   V.col(1) = (V.col(1) - V.col(0).dot(V.col(1)) * V.col(0)).normalized();
   V.col(2) = V.col(0).cross(V.col(1));
-  FV.noalias() = F * V;
+  const Mat<3, T> FV = F * V;
   sigma[0] = FV.col(0).norm();
   if (sigma[0] == 0) {  // F = 0
     U.setIdentity();
@@ -186,17 +184,8 @@ void signedSvd(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>&
   if constexpr (D == 2) {
     svd2(F, U, sigma, V);
   } else {
-    V.setIdentity();
     svd3(F, U, sigma, V);
   }
-}
-
-template <int D, class T>
-void signedSvdFrom(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>& V) {
-  if constexpr (D == 2)
-    svd2(F, U, sigma, V);  // closed form: nothing to gain from a guess
-  else
-    svd3(F, U, sigma, V);
 }
 
 template <int D, class T>
@@ -456,11 +445,10 @@ SNOWSIM_LANES_INLINE LaneMask<T> singularValuesWithinLanes(const Mat3Lanes<T>& R
 }
 
 // Diagonalises the symmetric A in every lane by cyclic Jacobi rotations (Golub and Van Loan,
-// section 8.5), accumulating them into V: V^T A_in V = A_out. From a good guess (A nearly
-// diagonal) one or two sweeps finish it; from any start at most a handful. A lane skips a rotation
-// once its off-diagonal entry no longer changes the diagonal (|a_pq| <= 1e-16 sqrt(a_pp a_qq) for
-// the positive semi-definite A here); a sweep that rotates no lane ends them, and a lane whose
-// sweep rotated nothing is left as it is by the next.
+// section 8.5), accumulating them into V: V^T A_in V = A_out. A handful of sweeps finish it. A
+// lane skips a rotation once its off-diagonal entry no longer changes the diagonal (|a_pq| <=
+// 1e-16 sqrt(a_pp a_qq) for the positive semi-definite A here); a sweep that rotates no lane ends
+// them, and a lane whose sweep rotated nothing is left as it is by the next.
 template <class T>
 SNOWSIM_LANES_INLINE void jacobiEigenLanes(Mat3Lanes<T>& A, Mat3Lanes<T>& V) {
   constexpr int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
@@ -505,15 +493,14 @@ SNOWSIM_LANES_INLINE void normalizeLanes(Lanes<T> (&v)[3], Lanes<T> norm) {
 }
 
 // The 3x3 SVD F = U diag(sigma) V^T in every lane, from the eigenvectors of F^T F found by Jacobi
-// rotations starting from the guess V (in/out): V the eigenvectors ordered by decreasing
-// eigenvalue, re-orthonormalised so that it is a rotation to round-off; then U by
-// Gram-Schmidt on the columns of F V, which stays orthonormal when singular values nearly
-// coincide; the last singular value takes the sign of det F.
+// rotations: V the eigenvectors ordered by decreasing eigenvalue, re-orthonormalised so that it is
+// a rotation to round-off; then U by Gram-Schmidt on the columns of F V, which stays orthonormal
+// when singular values nearly coincide; the last singular value takes the sign of det F.
 template <class T>
 SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes<T> (&sigma)[3],
                                    Mat3Lanes<T>& V) {
-  Mat3Lanes<T> FV = productLanes(F, V);
-  Mat3Lanes<T> A = transposeProductLanes(FV, FV);  // V^T F^T F V, nearly diagonal for a good guess
+  Mat3Lanes<T> A = transposeProductLanes(F, F);
+  V = identityLanes<T>();
   jacobiEigenLanes(A, V);
   // Decreasing eigenvalues; a swap of two columns negates one so that V stays a rotation.
   auto order = [&](int i, int j) {
@@ -539,7 +526,7 @@ SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes
   normalizeLanes<T>(v[1], sqrtLanes<T>(dotLanes<T>(v[1], v[1])));
   crossLanes<T>(v[0], v[1], v[2]);
   for (int j = 0; j < 3; ++j) setColumn(V, j, v[j]);
-  FV = productLanes(F, V);
+  const Mat3Lanes<T> FV = productLanes(F, V);
   Lanes<T> fv[3][3], u[3][3];
   for (int j = 0; j < 3; ++j) column(FV, j, fv[j]);
   sigma[0] = sqrtLanes<T>(dotLanes<T>(fv[0], fv[0]));
@@ -601,7 +588,7 @@ SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3L
 }
 
 // Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
-// (eq. 11), started from the identity; R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial
+// (eq. 11); R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial
 // / J_clamped (as in 2D), the Lamé parameters hardened anew and the stress of the new F_E.
 template <class T>
 SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
@@ -609,9 +596,9 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
                                                    Mat<3, T>* R_E, LameOf<T>* lame,
                                                    Symmetric<3, T>* tau, T lo, T hi) {
   const Mat3Lanes<T> F = loadLanes(F_E, ps);
-  // No starting guess is kept per particle: from the identity the SVD takes a few Jacobi sweeps
-  // more, about what keeping and sorting 36 bytes a particle costs.
-  Mat3Lanes<T> U, V = identityLanes<T>();
+  // From the identity: a guess kept per particle would save a few Jacobi sweeps but cost a matrix
+  // a particle to store, sort and migrate.
+  Mat3Lanes<T> U, V;
   Lanes<T> sigma[3];
   svdLanes(F, U, sigma, V);
   const Lanes<T> J_trial = sigma[0] * sigma[1] * sigma[2];
@@ -854,8 +841,6 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
   template Mat<3, T> polarRotation<3, T>(const Mat<3, T>&);                                        \
   template void signedSvd<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);             \
   template void signedSvd<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);             \
-  template void signedSvdFrom<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);         \
-  template void signedSvdFrom<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);         \
   template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);                \
   template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);                \
   template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);             \

@@ -61,11 +61,6 @@ Mat<D, T> polarRotation(const MatArg<D, T>& F);
 // determinant of F shows up as a negative last singular value.
 template <int D, class T = Real>
 void signedSvd(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>& V);
-// Same, with V on entry a guess of the result (a rotation, e.g. the last step's V): F^T F in that
-// basis is nearly diagonal, so the 3x3 solve needs a few Jacobi rotations instead of a full
-// eigen-decomposition. The result is the same to round-off whatever the guess.
-template <int D, class T = Real>
-void signedSvdFrom(const MatArg<D, T>& F, Mat<D, T>& U, Vec<D, T>& sigma, Mat<D, T>& V);
 
 // Fixed-corotated first Piola-Kirchhoff stress (paper eq. 6 differentiated):
 // P = dPsi/dF_E = 2 mu (F_E - R_E) + lambda (J_E - 1) J_E F_E^{-T}.

@@ -11,7 +11,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstring>
@@ -458,19 +457,20 @@ void ParticleGridSchedule<D, P>::storeInSortedOrder(P& particles) {
   };
   particles.forEachArray([&]<class E>(std::vector<E>& array) {
     constexpr size_t piece = sortPiece(sizeof(E), sizeof(Scalar));
-    using Piece = std::array<std::byte, piece>;
     if (array.empty()) return;
-    Piece* spare = reinterpret_cast<Piece*>(spare_.data());
+    // The elements as bytes: scalars, ints and fixed-size Eigen matrices, plain storage all.
+    std::byte* spare = reinterpret_cast<std::byte*>(spare_.data());
     std::byte* elements = reinterpret_cast<std::byte*>(array.data());
     for (size_t offset = 0; offset < sizeof(E); offset += piece) {
       team_.forEachPart("sort: gather", [&](int part) {
         places(part, [&](int o) {
-          std::memcpy(&spare[o], elements + size_t(binning_.sorted(o)) * sizeof(E) + offset, piece);
+          std::memcpy(spare + size_t(o) * piece,
+                      elements + size_t(binning_.sorted(o)) * sizeof(E) + offset, piece);
         });
       });
       team_.forEachPart("sort: copy back", [&](int part) {
         places(part, [&](int o) {
-          std::memcpy(elements + size_t(o) * sizeof(E) + offset, &spare[o], piece);
+          std::memcpy(elements + size_t(o) * sizeof(E) + offset, spare + size_t(o) * piece, piece);
         });
       });
     }

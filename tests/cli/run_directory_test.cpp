@@ -76,8 +76,8 @@ TEST(RunDirectory, ASceneRefusedAtSetUpLeavesTheEarlierRunWhole) {
             0);
   const int frames = countFrames(out, ".ply");
   ASSERT_GT(frames, 1);
-  // A plate 10 micrometres thick turned 45 degrees about z: wide along every axis, yet no point
-  // of the particle lattice falls inside it.
+  // A plate 1 micrometre thick turned 45 degrees about z: wide along every axis, yet no point of
+  // the particle lattice falls inside it.
   const fs::path inputs = freshDir("refused_at_set_up_inputs");
   fs::create_directories(inputs);
   std::ofstream plate(inputs / "plate.obj");

@@ -1,5 +1,6 @@
 #include "app/run_checkpoint.h"
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -23,6 +24,23 @@ std::uint64_t hashOf(const nlohmann::json& resolved_scene) {
 }
 
 }  // namespace
+
+bool mpirunSetsItsKillTimeout() {
+  constexpr const char* kSetting = "odls_base_sigkill_timeout";
+  if (std::getenv((std::string("OMPI_MCA_") + kSetting).c_str())) return true;
+  const char* home = std::getenv("HOME");
+  for (const std::string file : {std::string(home ? home : "") + "/.openmpi/mca-params.conf",
+                                 std::string("/etc/openmpi/openmpi-mca-params.conf")}) {
+    std::ifstream in(file);
+    for (std::string line; std::getline(in, line);) {
+      const size_t start = line.find_first_not_of(" \t");
+      if (start != std::string::npos && line[start] != '#' &&
+          line.find(kSetting) != std::string::npos)
+        return true;
+    }
+  }
+  return false;
+}
 
 std::string checkpointPath(const std::string& dir) {
   return dir + "/checkpoint.snowsim";

@@ -427,9 +427,16 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
                                : StepWatch(scene, estimate.initialStep(), start_limit);
   progress.note(estimate.before());
-  if (world.ranks() > 1)
+  if (world.ranks() > 1) {
     progress.note(scene.name + ": split across " + std::to_string(world.ranks()) +
                   " MPI ranks, rank 0 writing the output");
+    if (!mpirunSetsItsKillTimeout())
+      progress.note(
+          "snowsim: warning: mpirun kills the ranks 1 s after passing a stop on (Ctrl-C, "
+          "a time limit), likely before they write their checkpoint; launch it with "
+          "--mca odls_base_sigkill_timeout 60 so that a stopped run can be resumed "
+          "(docs/scale-out.md)");
+  }
   int written = first_frame;
   // The run's own state beside the solver's; next_frame: the first frame not yet written.
   CheckpointCadence cadence(

@@ -148,6 +148,26 @@ TEST(Mpi, ResumeAcrossRanksWritesTheFramesOfTheWholeRun) {
   EXPECT_EQ(summaryOf(out)["steps"], summaryOf(whole)["steps"]);
 }
 
+// mpirun kills the ranks 1 s after passing a stop on unless given more: a run across ranks warns
+// of it, and says nothing once mpirun is given the setting.
+TEST(Mpi, WarnsWhenMpirunWouldKillTheRanksBeforeTheirCheckpoint) {
+  const fs::path out = freshDir("mpi_kill_timeout");
+  // No setting in the environment or in a parameter file of the user's.
+  const std::string bare_env =
+      "env -u OMPI_MCA_odls_base_sigkill_timeout HOME=" + out.parent_path().string() + " ";
+  const std::string args = " run " + kScene + " -o " + out.string() + kShort + " --overwrite";
+  const std::string advice = "launch it with --mca odls_base_sigkill_timeout 60";
+  const auto bare = runCommand(bare_env + mpirun(2) + args);
+  EXPECT_EQ(bare.code, 0) << bare.output;
+  EXPECT_NE(bare.output.find(advice), std::string::npos) << bare.output;
+  const auto given = runCommand(bare_env +
+                                "mpirun --allow-run-as-root --oversubscribe --mca "
+                                "odls_base_sigkill_timeout 60 -np 2 " SNOWSIM_BINARY +
+                                args);
+  EXPECT_EQ(given.code, 0) << given.output;
+  EXPECT_EQ(given.output.find(advice), std::string::npos) << given.output;
+}
+
 // What is not distributed is refused with a message, before anything is written.
 TEST(Mpi, RefusesWhatIsNotDistributed) {
   const fs::path out = freshDir("mpi_refused");

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <string_view>
 
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -38,45 +39,49 @@ double norm(const Point& a) {
   throw InputError(path + ": " + problem);
 }
 
-// An STL cut short (a copy or a download that stopped), which assimp reports only as a storage
-// format it cannot tell. A binary STL is an 80-byte header, a triangle count N (u32) and 50 bytes a
-// triangle; an ASCII one starts with "solid" (as some binary headers do too) and ends with
-// "endsolid".
-void refuseCutShortStl(const std::string& path) {
+// A binary STL cut short (a copy or a download that stopped), which assimp reports only as a
+// storage format it cannot tell: an 80-byte header, a triangle count N (u32) and 50 bytes a
+// triangle. A file that starts as text with "solid" is left to assimp as ASCII.
+void refuseCutShortBinaryStl(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (extension != ".stl") return;
   std::ifstream in(path, std::ios::binary);
+  if (!in) return;  // assimp names what keeps it from reading the file
   const auto size = static_cast<std::uintmax_t>(std::filesystem::file_size(path));
-  std::string head(std::min<std::uintmax_t>(size, 84), '\0');
+  std::string head(std::min<std::uintmax_t>(size, 512), '\0');
   in.read(head.data(), std::streamsize(head.size()));
-  std::uint32_t triangles = 0;
-  for (int b = 0; b < 4 && size >= 84; ++b)
-    triangles |= std::uint32_t(static_cast<unsigned char>(head[80 + b])) << (8 * b);
-  const std::uintmax_t needed = 84 + 50 * std::uintmax_t(triangles);
-  if (size >= 84 && size == needed) return;  // a whole binary STL
-  const size_t start = head.find_first_not_of(" \t\r\n");
-  if (start != std::string::npos && head.compare(start, 5, "solid") == 0) {
-    std::string tail(std::min<std::uintmax_t>(size, 256), '\0');
-    in.seekg(std::streamoff(size - tail.size()));
-    in.read(tail.data(), std::streamsize(tail.size()));
-    if (tail.find("endsolid") == std::string::npos)
-      fail(path,
-           "an ASCII STL ends with \"endsolid\" and this one does not: the file ends early "
-           "(was it cut short in a copy or a download?)");
-    return;
-  }
+  // Text, after a UTF-8 byte-order mark if there is one, that starts with "solid".
+  const std::string_view opening =
+      std::string_view(head).substr(head.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0);
+  const bool text = std::all_of(opening.begin(), opening.end(), [](char c) {
+    return std::isprint(static_cast<unsigned char>(c)) ||
+           std::isspace(static_cast<unsigned char>(c));
+  });
+  const size_t start = opening.find_first_not_of(" \t\r\n");
+  if (text && start != std::string_view::npos && opening.substr(start, 5) == "solid") return;
   if (size < 84)
     fail(path,
          "a binary STL starts with an 84-byte header (80 bytes and the triangle count); the "
          "file has " +
              std::to_string(size) + " bytes");
-  if (size < needed)
-    fail(path, "a binary STL of " + std::to_string(triangles) +
-                   " triangles (its header's count) takes 84 + 50 x " + std::to_string(triangles) +
-                   " = " + std::to_string(needed) + " bytes and the file has " +
-                   std::to_string(size) +
-                   ": it ends early (was it cut short in a copy or a download?)");
+  std::uint32_t triangles = 0;
+  for (int b = 0; b < 4; ++b)
+    triangles |= std::uint32_t(static_cast<unsigned char>(head[80 + b])) << (8 * b);
+  const std::uintmax_t needed = 84 + 50 * std::uintmax_t(triangles);
+  if (size >= needed) return;
+  // A count far beyond the file is no STL's header.
+  if (needed > 10 * size)
+    fail(path,
+         "neither an ASCII STL (text starting with \"solid\") nor a binary STL: its bytes "
+         "80-83 give " +
+             std::to_string(triangles) + " triangles, " + std::to_string(needed) +
+             " bytes, and the file has " + std::to_string(size));
+  fail(path, "a binary STL of " + std::to_string(triangles) +
+                 " triangles (its header's count) takes 84 + 50 x " + std::to_string(triangles) +
+                 " = " + std::to_string(needed) + " bytes and the file has " +
+                 std::to_string(size) +
+                 ": it ends early (was it cut short in a copy or a download?)");
 }
 
 // Every triangle of every mesh of the file, vertices merged by exact position.
@@ -191,7 +196,7 @@ TriangleMesh loadTriangleMesh(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, error))
     fail(path, "no such mesh file (a closed triangle mesh: OBJ, STL or PLY)");
   if (std::filesystem::file_size(path, error) == 0) fail(path, "the file is empty");
-  refuseCutShortStl(path);
+  refuseCutShortBinaryStl(path);
   TriangleMesh mesh = readTriangles(path);
   checkTriangles(mesh, path);
   checkWatertight(mesh, path);

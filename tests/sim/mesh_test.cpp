@@ -2,6 +2,7 @@
 // snow that fills them, and snow resting on a mesh collider as on the analytic box it matches.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -106,13 +107,21 @@ TEST(TriangleMesh, PlacementScalesThenRotatesThenMoves) {
   EXPECT_NEAR(q[2], 0, 1e-12);
 }
 
-// Each bad mesh stops the scene with the mesh file named and what is wrong with it.
-// The 84 bytes that open a binary STL of `triangles` triangles.
+// The 84 bytes that open a binary STL of `triangles` triangles; its text starts with "solid", as
+// some exporters write it.
 std::string binaryStlHeader(std::uint32_t triangles) {
-  std::string header(80, ' ');
+  std::string header = "solid exported";
+  header.resize(80, ' ');
   for (int b = 0; b < 4; ++b) header += char((triangles >> (8 * b)) & 0xff);
   return header;
 }
+
+// The unit tetrahedron's four faces, outward, as corner indices into kTetrahedron.
+constexpr std::array<std::array<float, 3>, 4> kTetrahedron = {
+    {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+constexpr int kTetrahedronFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+
+// Each bad mesh stops the scene with the mesh file named and what is wrong with it.
 
 TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   struct Case {
@@ -130,13 +139,13 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
        "a vertex is at (nan, 0, 0): each coordinate must be a finite number between -1e9 and 1e9"},
       {"huge.obj", "v 1e30 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "is at (1e+30, 0, 0)"},
       // Cut short: a binary STL whose header counts 12 triangles and holds 2, one shorter than
-      // its header, and an ASCII STL without its end.
+      // its header; and a file that is no STL.
       {"cut.stl", binaryStlHeader(12) + std::string(100, '\0'),
        "a binary STL of 12 triangles (its header's count) takes 84 + 50 x 12 = 684 bytes and the "
        "file has 184: it ends early"},
       {"stub.stl", std::string(60, '\0'), "a binary STL starts with an 84-byte header"},
-      {"cut_ascii.stl", "solid cube\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n",
-       "an ASCII STL ends with \"endsolid\" and this one does not: the file ends early"},
+      {"page.stl", "<html><body>" + std::string(200, '\x01') + "</body></html>",
+       "neither an ASCII STL (text starting with \"solid\") nor a binary STL"},
   };
   for (const Case& c : cases) {
     const fs::path path = writeFile(c.file, c.text);
@@ -163,6 +172,33 @@ TEST(TriangleMesh, BadMeshesAreRefusedNamingTheFileAndTheProblem) {
   flat["grid"]["cells"] = {20, 20};
   flat["bodies"][0]["position"] = {0.1, 0.1};
   EXPECT_NE(errorOf(flat).find("\"mesh\" needs a 3D scene"), std::string::npos) << errorOf(flat);
+}
+
+// STL files as exporters write them load: binary with a header starting "solid", ASCII with a
+// byte-order mark, CRLF line ends, trailing blank lines and an upper-case extension.
+TEST(TriangleMesh, StlFilesOfEitherKindLoad) {
+  std::string binary = binaryStlHeader(4);
+  for (const auto& face : kTetrahedronFaces) {
+    binary += std::string(12, '\0');  // the normal, which the loader does not read
+    for (const int corner : face)
+      binary.append(reinterpret_cast<const char*>(kTetrahedron[corner].data()), 12);
+    binary += std::string(2, '\0');
+  }
+  std::string ascii = "\xEF\xBB\xBFsolid tetrahedron\r\n";
+  for (const auto& face : kTetrahedronFaces) {
+    ascii += "facet normal 0 0 0\r\nouter loop\r\n";
+    for (const int corner : face)
+      ascii += "vertex " + std::to_string(kTetrahedron[corner][0]) + " " +
+               std::to_string(kTetrahedron[corner][1]) + " " +
+               std::to_string(kTetrahedron[corner][2]) + "\r\n";
+    ascii += "endloop\r\nendfacet\r\n";
+  }
+  ascii += "endsolid tetrahedron\r\n" + std::string(300, '\n');
+  for (const auto& [file, text] : {std::pair{"binary.stl", binary}, {"ascii.STL", ascii}}) {
+    const fs::path path = writeFile(file, text);
+    EXPECT_EQ(errorOf(meshScene(path.string(), 0.05, {0.1, 0.1, 0.1})), "") << file;
+    EXPECT_EQ(loadTriangleMesh(path.string()).triangles.size(), 4u) << file;
+  }
 }
 
 // A body that holds no particles is refused before the run writes anything: one narrower than

@@ -25,21 +25,22 @@ std::uint64_t hashOf(const nlohmann::json& resolved_scene) {
 
 }  // namespace
 
-bool mpirunSetsItsKillTimeout() {
+bool mpirunMayKillTheCheckpoint() {
+  if (!std::getenv("OMPI_MCA_orte_hnp_uri")) return false;  // not ORTE's mpirun
   constexpr const char* kSetting = "odls_base_sigkill_timeout";
-  if (std::getenv((std::string("OMPI_MCA_") + kSetting).c_str())) return true;
+  if (std::getenv((std::string("OMPI_MCA_") + kSetting).c_str())) return false;
   const char* home = std::getenv("HOME");
-  for (const std::string file : {std::string(home ? home : "") + "/.openmpi/mca-params.conf",
-                                 std::string("/etc/openmpi/openmpi-mca-params.conf")}) {
+  for (const std::string& file : {std::string(home ? home : "") + "/.openmpi/mca-params.conf",
+                                  std::string("/etc/openmpi/openmpi-mca-params.conf")}) {
     std::ifstream in(file);
     for (std::string line; std::getline(in, line);) {
       const size_t start = line.find_first_not_of(" \t");
       if (start != std::string::npos && line[start] != '#' &&
           line.find(kSetting) != std::string::npos)
-        return true;
+        return false;
     }
   }
-  return false;
+  return true;
 }
 
 std::string checkpointPath(const std::string& dir) {

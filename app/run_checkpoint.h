@@ -36,11 +36,12 @@ class CheckpointCadence {
   Clock::time_point last_ = Clock::now();
 };
 
-// Whether OpenMPI's mpirun, which kills the ranks odls_base_sigkill_timeout seconds after passing
-// a stop on (1 s unless set, often before the checkpoint is written), has been given that setting:
-// on its command line or in its environment (the ranks see OMPI_MCA_odls_base_sigkill_timeout),
-// or in OpenMPI's parameter files. Only what the ranks can see is checked.
-bool mpirunSetsItsKillTimeout();
+// Whether the ranks were launched by OpenMPI 4's mpirun (ORTE) without odls_base_sigkill_timeout
+// where they can see it: on mpirun's command line or in its environment (both reach the ranks as
+// OMPI_MCA_odls_base_sigkill_timeout), or in OpenMPI's default parameter files. Stopped, that
+// mpirun passes the stop on to the ranks and kills them 1 s later unless set, mostly before their
+// checkpoint is written.
+bool mpirunMayKillTheCheckpoint();
 
 // The hash that ties a checkpoint to its scene: of the resolved scene as run.json records it.
 std::uint64_t sceneHash(const Scene& scene);

@@ -430,12 +430,12 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   if (world.ranks() > 1) {
     progress.note(scene.name + ": split across " + std::to_string(world.ranks()) +
                   " MPI ranks, rank 0 writing the output");
-    if (!mpirunSetsItsKillTimeout())
+    if (mpirunMayKillTheCheckpoint())
       progress.note(
-          "snowsim: warning: mpirun kills the ranks 1 s after passing a stop on (Ctrl-C, "
-          "a time limit), likely before they write their checkpoint; launch it with "
-          "--mca odls_base_sigkill_timeout 60 so that a stopped run can be resumed "
-          "(docs/scale-out.md)");
+          "snowsim: warning: stopped, mpirun kills the ranks 1 s after passing the stop on, "
+          "likely before they write their checkpoint; launch it with --mca "
+          "odls_base_sigkill_timeout 15 (seconds, a little more than a checkpoint takes) so "
+          "that a stopped run can be resumed (docs/scale-out.md)");
   }
   int written = first_frame;
   // The run's own state beside the solver's; next_frame: the first frame not yet written.

@@ -148,22 +148,26 @@ TEST(Mpi, ResumeAcrossRanksWritesTheFramesOfTheWholeRun) {
   EXPECT_EQ(summaryOf(out)["steps"], summaryOf(whole)["steps"]);
 }
 
-// mpirun kills the ranks 1 s after passing a stop on unless given more: a run across ranks warns
-// of it, and says nothing once mpirun is given the setting.
+// OpenMPI 4's mpirun kills the ranks 1 s after passing a stop on unless given more: a run across
+// ranks warns of it once, and says nothing once mpirun is given the setting.
 TEST(Mpi, WarnsWhenMpirunWouldKillTheRanksBeforeTheirCheckpoint) {
+  std::ifstream system_file("/etc/openmpi/openmpi-mca-params.conf");
+  for (std::string line; std::getline(system_file, line);)
+    if (line.rfind("odls_base_sigkill_timeout", 0) == 0)
+      GTEST_SKIP() << "this machine's OpenMPI sets odls_base_sigkill_timeout for every mpirun";
   const fs::path out = freshDir("mpi_kill_timeout");
   // No setting in the environment or in a parameter file of the user's.
   const std::string bare_env =
       "env -u OMPI_MCA_odls_base_sigkill_timeout HOME=" + out.parent_path().string() + " ";
   const std::string args = " run " + kScene + " -o " + out.string() + kShort + " --overwrite";
-  const std::string advice = "launch it with --mca odls_base_sigkill_timeout 60";
+  const std::string advice = "launch it with --mca odls_base_sigkill_timeout 15";
   const auto bare = runCommand(bare_env + mpirun(2) + args);
   EXPECT_EQ(bare.code, 0) << bare.output;
-  EXPECT_NE(bare.output.find(advice), std::string::npos) << bare.output;
-  const auto given = runCommand(bare_env +
-                                "mpirun --allow-run-as-root --oversubscribe --mca "
-                                "odls_base_sigkill_timeout 60 -np 2 " SNOWSIM_BINARY +
-                                args);
+  const size_t warned = bare.output.find(advice);
+  ASSERT_NE(warned, std::string::npos) << bare.output;
+  EXPECT_EQ(bare.output.find(advice, warned + 1), std::string::npos) << "rank 0 alone warns";
+  const auto given =
+      runCommand(bare_env + "OMPI_MCA_odls_base_sigkill_timeout=15 " + mpirun(2) + args);
   EXPECT_EQ(given.code, 0) << given.output;
   EXPECT_EQ(given.output.find(advice), std::string::npos) << given.output;
 }

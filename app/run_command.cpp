@@ -374,7 +374,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   onTheOutputDirectory([&] {
     prepareOutputDirectory(options.out);
     lock.emplace(options.out);
-    if (!saved) prepareRunDirectory(options.out, video_name, options.overwrite);
+    if (!saved && !options.overwrite) refuseEarlierRun(options.out, video_name);
   });
   const auto start = std::chrono::steady_clock::now();
   const auto wallTime = [&] {
@@ -383,7 +383,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   StageClock clock;  // this thread's stages; the solver times its own
   std::unique_ptr<Simulation> simulation;
   {
-    // Every rank samples every body, so a body that fills no particle is refused alike; and before
+    // Every rank samples every body, so a body that fills no particle is refused alike, before
     // --overwrite removes an earlier run.
     const StageClock::Scope time(&clock, "setup");
     simulation = makeSimulation(scene, options.threads, world);

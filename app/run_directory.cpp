@@ -80,9 +80,7 @@ std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& vi
   return files;
 }
 
-void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite) {
-  prepareOutputDirectory(dir);
-  if (overwrite) return;
+void refuseEarlierRun(const std::string& dir, const std::string& video) {
   std::vector<fs::path> files = earlierRunFiles(dir, video);
   // Leftover temporaries are replaced as the run writes; only finished files are in the way.
   std::erase_if(files, [](const fs::path& f) { return f.extension() == kTemporary; });

@@ -14,12 +14,11 @@ namespace snowsim {
 std::vector<std::filesystem::path> earlierRunFiles(const std::filesystem::path& dir,
                                                    const std::string& video);
 
-// Readies dir for a run: creates it and checks it is writable. When it holds an earlier run's
-// frames, run.json or video, throws InputError listing them unless `overwrite`.
-void prepareRunDirectory(const std::string& dir, const std::string& video, bool overwrite);
+// Throws InputError listing an earlier run's frames, run.json or video when dir holds them.
+void refuseEarlierRun(const std::string& dir, const std::string& video);
 
-// For --overwrite, once nothing can refuse the run any more: removes exactly the earlier run's
-// files (temporaries included) and says on stderr what it removed.
+// For --overwrite, once the run's set-up has accepted the scene: removes exactly the earlier
+// run's files (temporaries included) and says on stderr what it removed.
 void removeEarlierRun(const std::string& dir, const std::string& video);
 
 // Holds dir for one run (or resume) while it lives: a second run, or a resume, given the same

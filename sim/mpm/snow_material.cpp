@@ -493,9 +493,11 @@ SNOWSIM_LANES_INLINE void normalizeLanes(Lanes<T> (&v)[3], Lanes<T> norm) {
 }
 
 // The 3x3 SVD F = U diag(sigma) V^T in every lane, from the eigenvectors of F^T F found by Jacobi
-// rotations: V the eigenvectors ordered by decreasing eigenvalue, re-orthonormalised so that it is
-// a rotation to round-off; then U by Gram-Schmidt on the columns of F V, which stays orthonormal
-// when singular values nearly coincide; the last singular value takes the sign of det F.
+// rotations from the identity (a guess kept per particle would save a few sweeps but cost a
+// matrix a particle to store, sort and migrate): V the eigenvectors ordered by decreasing
+// eigenvalue, re-orthonormalised so that it is a rotation to round-off; then U by Gram-Schmidt on
+// the columns of F V, which stays orthonormal when singular values nearly coincide; the last
+// singular value takes the sign of det F.
 template <class T>
 SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes<T> (&sigma)[3],
                                    Mat3Lanes<T>& V) {
@@ -588,16 +590,14 @@ SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3L
 }
 
 // Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
-// (eq. 11); R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial
-// / J_clamped (as in 2D), the Lamé parameters hardened anew and the stress of the new F_E.
+// (eq. 11); R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial / J_clamped (as in 2D),
+// the Lamé parameters hardened anew and the stress of the new F_E.
 template <class T>
 SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
                                                    const int* at, Mat<3, T>* F_E, T* J_P,
                                                    Mat<3, T>* R_E, LameOf<T>* lame,
                                                    Symmetric<3, T>* tau, T lo, T hi) {
   const Mat3Lanes<T> F = loadLanes(F_E, ps);
-  // From the identity: a guess kept per particle would save a few Jacobi sweeps but cost a matrix
-  // a particle to store, sort and migrate.
   Mat3Lanes<T> U, V;
   Lanes<T> sigma[3];
   svdLanes(F, U, sigma, V);

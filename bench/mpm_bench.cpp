@@ -177,10 +177,10 @@ void measure(const std::string& label, const Json& j, int steps, int reps, bool 
     rate2.push_back(run<D, T>(scene, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
-  // x, v; mass, volume, density, J_P and the spare buffer the particles are sorted through (a
-  // scalar at a time); body, id, block, sorted order; F_E, C; the stress; Lamé.
+  // x, v; mass, volume, J_P, hardening and the spare buffer the particles are sorted through (a
+  // scalar at a time); body, id, block, sorted order; F_E, C; the stress.
   const size_t bytes = sizeof(Vec<D, T>) * 2 + sizeof(T) * 5 + sizeof(int) * 4 +
-                       sizeof(Mat<D, T>) * 2 + sizeof(Symmetric<D, T>) + sizeof(LameOf<T>);
+                       sizeof(Mat<D, T>) * 2 + sizeof(Symmetric<D, T>);
   std::printf(
       "%s: %zu particles, 1 thread %.2f M particle-steps/s, 2 threads %.2f M/s (x%.2f; "
       "two solvers side by side x%.2f), bit-identical: %s, %zu bytes/particle, binned %ld "

@@ -17,8 +17,7 @@ struct Particles {
   std::vector<Vec<D, T>> x;  // position, m
   std::vector<Vec<D, T>> v;  // velocity, m/s
   std::vector<T> mass;       // kg
-  std::vector<T> volume;     // initial volume V_p^0, m^D (set on the first step)
-  std::vector<T> density;    // density rho_p^0, kg/m^D (set on the first step)
+  std::vector<T> volume;     // initial volume V_p^0, m^D (set on the first step): rho_p^0 = m / V
   std::vector<int> body;     // index of the body the particle was generated in
   std::vector<int> id;       // index at creation: stable however the solver reorders them
 
@@ -28,7 +27,7 @@ struct Particles {
   // arrays extends this; tests check that it names every member.
   template <class F>
   void forEachArray(F&& f) {
-    f(x), f(v), f(mass), f(volume), f(density), f(body), f(id);
+    f(x), f(v), f(mass), f(volume), f(body), f(id);
   }
 
   // The positions in creation order, whatever order the particles are stored in.
@@ -42,7 +41,6 @@ struct Particles {
     v.push_back(velocity);
     mass.push_back(m);
     volume.push_back(0);
-    density.push_back(0);
     body.push_back(body_index);
     id.push_back(size() - 1);
   }

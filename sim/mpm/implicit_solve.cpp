@@ -12,8 +12,8 @@ namespace snowsim {
 template <int D>
 void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFields<D>& fields,
                                        const Particles<D>& particles,
-                                       const std::vector<Mat<D>>& F_E,
-                                       const std::vector<Lame>& lame, const MpmParams& params,
+                                       const std::vector<Mat<D>>& F_E, const SnowMaterial& material,
+                                       const std::vector<Real>& hardening, const MpmParams& params,
                                        Real dt, LoopRunner* loops) {
   dt_ = dt;
   loops_ = loops;
@@ -32,7 +32,7 @@ void ImplicitVelocitySolve<D>::prepare(const GridGeometry<D>& grid, const GridFi
   parallelFor(loops_, particles.size(), [&](int p) {
     // Column j: G = e_j (a unit grad u), dF = dt G F_E, vec(V_p^0 dP(dF) F_E^T).
     const Mat<D>& F = F_E[p];
-    const Tangent<D> C = fixedCorotatedPiolaTangent<D>(F, lame[p]);
+    const Tangent<D> C = fixedCorotatedPiolaTangent<D>(F, lameOf(material, hardening[p]));
     for (int j = 0; j < D * D; ++j) {
       Mat<D> G = Mat<D>::Zero();
       G(j % D, j / D) = 1;

@@ -25,14 +25,14 @@ template <int D>
 class ImplicitVelocitySolve {
  public:
   // Per-step setup: active nodes (mass > 0), each particle's stencil nodes and weight gradients,
-  // its linearised stress response (from F_E and the Lamé parameters) and the stiffness's
-  // diagonal blocks. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
+  // its linearised stress response (from F_E and the Lamé parameters its hardening gives) and the
+  // stiffness's diagonal blocks. Gradients are grad w_ip for PIC/FLIP and w_ip D^-1 (x_i - x_p) for
   // APIC/MLS, the same ones the explicit force and the F_E update use. The per-particle loops of
   // this step run on `loops` (none: on the calling thread).
   void prepare(const GridGeometry<D>& grid, const GridFields<D>& fields,
                const Particles<D>& particles, const std::vector<Mat<D>>& F_E,
-               const std::vector<Lame>& lame, const MpmParams& params, Real dt,
-               LoopRunner* loops = nullptr);
+               const SnowMaterial& material, const std::vector<Real>& hardening,
+               const MpmParams& params, Real dt, LoopRunner* loops = nullptr);
 
   // Replaces fields.velocity (v*, already collided) of the active nodes by the solution v^{n+1}.
   // node_free (per grid node) projects onto the velocity components the collisions left free

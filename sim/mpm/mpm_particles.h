@@ -19,9 +19,9 @@ struct MpmParticles : Particles<D, T> {
   // scatter spreads: computed where F_E and its rotation are at hand; a third of the F_E and
   // rotation the scatter would otherwise read.
   std::vector<Symmetric<D, T>> tau;
-  std::vector<T> J_P;           // det F_P, plastic volume ratio
-  std::vector<Mat<D, T>> C;     // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
-  std::vector<LameOf<T>> lame;  // hardened Lamé parameters (eq. 8), refreshed with J_P
+  std::vector<T> J_P;        // det F_P, plastic volume ratio
+  std::vector<Mat<D, T>> C;  // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
+  std::vector<T> hardening;  // e^{xi (1 - J_P)}, bounded (eq. 8), refreshed with J_P
   // Auto-sleep (mpm.auto_sleep): the steps in a row the particle and its stencil's nodes have
   // moved slower than the sleep speed; asleep once it reaches the sleep steps. Empty when off.
   std::vector<int> calm_steps;
@@ -35,14 +35,14 @@ struct MpmParticles : Particles<D, T> {
     tau.assign(n, Symmetric<D, T>{});
     J_P.assign(n, 1);
     C.assign(n, Mat<D, T>::Zero());
-    lame.assign(n, hardenedLame<T>(material, 1));
+    hardening.assign(n, hardeningFactor<T>(material, 1));
   }
 
   // Every array, empty ones included (calm_steps without auto-sleep): a reordering skips those.
   template <class F>
   void forEachArray(F&& f) {
     Particles<D, T>::forEachArray(f);
-    f(F_E), f(tau), f(J_P), f(C), f(lame), f(calm_steps);
+    f(F_E), f(tau), f(J_P), f(C), f(hardening), f(calm_steps);
   }
 };
 

@@ -32,7 +32,6 @@ Particles<D, T> inPrecision(Particles<D> particles) {
     castEach(particles.v, converted.v);
     converted.mass.assign(particles.mass.begin(), particles.mass.end());
     converted.volume.assign(particles.volume.begin(), particles.volume.end());
-    converted.density.assign(particles.density.begin(), particles.density.end());
     converted.body = std::move(particles.body);
     converted.id = std::move(particles.id);
     return converted;
@@ -46,6 +45,7 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
                            RankExchange& world)
     : params_(scene.mpm),
       material_(scene.material),
+      unhardened_lame_(unhardenedLame<T>(scene.material)),
       gravity_(sceneGravity<D>(scene).template cast<T>()),
       particles_(inPrecision<D, T>(std::move(particles)), scene.material),
       grid_(sceneGrid<D>(scene)),
@@ -348,7 +348,7 @@ void MpmSolver<D, T>::continuePlasticity(const Scene& scene) {
     const Snapshot* points = scene.bodies[b].points.get();
     if (!points || points->plastic_j.empty()) continue;
     particles_.J_P[p] = T(points->plastic_j[p - first[b]]);
-    particles_.lame[p] = hardenedLame<T>(material_, particles_.J_P[p]);
+    particles_.hardening[p] = hardeningFactor<T>(material_, particles_.J_P[p]);
   }
 }
 
@@ -357,8 +357,7 @@ template <class Kernel>
 void MpmSolver<D, T>::estimateVolume(int p) {
   if (params_.initial_volume == InitialVolume::Lattice) {
     // Each particle carries its share of its body: V_p^0 = m_p / rho_body = spacing^D.
-    particles_.density[p] = T(body_density_[particles_.body[p]]);
-    particles_.volume[p] = particles_.mass[p] / particles_.density[p];
+    particles_.volume[p] = particles_.mass[p] / T(body_density_[particles_.body[p]]);
     return;
   }
   // rho_p^0 = sum_i m_i w_ip / h^D, V_p^0 = m_p / rho_p^0 (paper section 4 step 2).
@@ -366,7 +365,6 @@ void MpmSolver<D, T>::estimateVolume(int p) {
   forEachStencilNode<D, Kernel>(grid_, particles_.x[p],
                                 [&](int k, T w, const V&) { rho += fields_.mass[k] * w; });
   rho /= T(std::pow(grid_.h, D));
-  particles_.density[p] = rho;
   particles_.volume[p] = particles_.mass[p] / rho;
 }
 
@@ -456,8 +454,8 @@ void MpmSolver<D, T>::solveImplicitVelocities(Real dt) {
         node_free_[k] =
             collideAndConstrain(colliders_, grid_.position(grid_.coords(k)), fields_.velocity[k]);
     });
-    implicit_.prepare(grid_, fields_, particles_, particles_.F_E, particles_.lame, params_, dt,
-                      &schedule_);
+    implicit_.prepare(grid_, fields_, particles_, particles_.F_E, material_, particles_.hardening,
+                      params_, dt, &schedule_);
     last_solve_ = implicit_.solve(fields_, node_free_, params_.implicit_beta,
                                   params_.implicit_tolerance, params_.implicit_max_iterations);
     solves_.add(last_solve_);
@@ -552,10 +550,10 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
   // Eqs. 11-12, the Lamé parameters and tau as well; the rotations are not kept.
   if constexpr (D == 2)
     plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(),
-                             particles_.lame.data(), particles_.tau.data(), isa);
+                             particles_.hardening.data(), particles_.tau.data(), isa);
   else
     plasticReturnMappingJ<T>(material_, ps, particles_.F_E.data(), particles_.J_P.data(), nullptr,
-                             particles_.lame.data(), particles_.tau.data(), isa);
+                             particles_.hardening.data(), particles_.tau.data(), isa);
   // The damper's stress from this step's velocity gradient, which C holds in every transfer.
   if (material_.viscosity > 0)
     for (const int p : ps) addDamperStress(p, 1);
@@ -619,7 +617,7 @@ Real MpmSolver<D, T>::measure(int p, BatchMaxima& m) const {
   const T v = particles_.v[p].norm();
   m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
   m.speed = std::max(m.speed, v);
-  m.signal = std::max(m.signal, pWaveSpeed(particles_.lame[p], particles_.density[p]) + v);
+  m.signal = std::max(m.signal, pWaveSpeed(lame(p), restDensity(p)) + v);
   // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
   return particles_.mass[p] *
          (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
@@ -737,14 +735,13 @@ StepLimit MpmSolver<D, T>::stepLimit() const {
   Real largest = -1;
   for (int p = 0; p < particles_.size(); ++p) {
     const Real speed = particles_.v[p].norm();
-    const Real wave =
-        semiImplicit() ? 0 : Real(pWaveSpeed<T>(particles_.lame[p], particles_.density[p]));
+    const Real wave = semiImplicit() ? 0 : Real(pWaveSpeed<T>(lame(p), restDensity(p)));
     if (speed + wave <= largest) continue;
     largest = speed + wave;
     limit.particle_speed = speed;
     limit.wave_speed = wave;
     limit.plastic_j = particles_.J_P[p];
-    limit.hardening = particles_.lame[p].mu / material_.mu0();
+    limit.hardening = particles_.hardening[p];
   }
   // Across ranks, the particle of the largest signal speed of all (the first rank's of equals).
   struct Candidate {
@@ -829,7 +826,6 @@ const Particles<D>& MpmSolver<D, T>::particles() const {
     castEach(particles.v, out.v);
     out.mass.assign(particles.mass.begin(), particles.mass.end());
     out.volume.assign(particles.volume.begin(), particles.volume.end());
-    out.density.assign(particles.density.begin(), particles.density.end());
     out.body = particles.body;
     out.id = particles.id;
     return out;

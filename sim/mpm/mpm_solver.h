@@ -56,7 +56,9 @@ class MpmSolver final : public Solver<D> {
   const std::vector<Mat<D, T>>& elasticGradient() const { return particles_.F_E; }
   const std::vector<T>& plasticJ() const { return particles_.J_P; }
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
-  LameOf<T> lame(int p) const { return particles_.lame[p]; }
+  LameOf<T> lame(int p) const { return lameOf(unhardened_lame_, particles_.hardening[p]); }
+  // rho_p^0, which the state does not keep: its mass over its initial volume.
+  T restDensity(int p) const { return particles_.mass[p] / particles_.volume[p]; }
   const std::vector<Symmetric<D, T>>& stress() const { return particles_.tau; }
   // Auto-sleep: how many particle scatters this process's still blocks added, kept, instead of
   // scattering again (not checkpointed: counted from construction or resume).
@@ -221,6 +223,7 @@ class MpmSolver final : public Solver<D> {
 
   MpmParams params_;
   SnowMaterial material_;
+  LameOf<T> unhardened_lame_;  // mu0 and lambda0 in T, which each particle's hardening scales
   V gravity_;
   MpmParticles<D, T> particles_;
   GridGeometry<D> grid_;

@@ -8,11 +8,10 @@
 namespace snowsim {
 
 template <class T>
-LameOf<T> hardenedLame(const SnowMaterial& m, std::type_identity_t<T> J_P) {
-  const T e = std::clamp(  // eq. 8, bounded
+T hardeningFactor(const SnowMaterial& m, std::type_identity_t<T> J_P) {
+  return std::clamp(  // eq. 8, bounded
       std::exp(T(m.xi) * (1 - J_P)), T(m.hardening_min),
       T(std::min<Real>(m.hardening_max, std::numeric_limits<T>::max())));
-  return {T(m.mu0()) * e, T(m.lambda0()) * e};
 }
 
 namespace {
@@ -562,15 +561,20 @@ SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes
   }
 }
 
-// The Kirchhoff stress of the lanes' F and rotation R with the Lamé parameters of particles ps,
-// into lane l's tau[ps[l]] where store[l] holds: as fixedCorotatedKirchhoffUpper.
+// The Kirchhoff stress of the lanes' F and rotation R with the Lamé parameters of particles ps
+// (the unhardened pair `unit` times each one's hardening), into lane l's tau[ps[l]] where store[l]
+// holds: as fixedCorotatedKirchhoffUpper.
 template <class T>
 SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3Lanes<T>& R,
-                                              std::span<const int> ps, const LameOf<T>* lame,
-                                              const bool* store, Symmetric<3, T>* tau) {
+                                              std::span<const int> ps, const LameOf<T>& unit,
+                                              const T* hardening, const bool* store,
+                                              Symmetric<3, T>* tau) {
   const int n = int(ps.size());
   Lanes<T> mu{}, lambda{};
-  for (int l = 0; l < n; ++l) mu[l] = lame[ps[l]].mu, lambda[l] = lame[ps[l]].lambda;
+  for (int l = 0; l < n; ++l) {
+    const LameOf<T> lame = lameOf(unit, hardening[ps[l]]);
+    mu[l] = lame.mu, lambda[l] = lame.lambda;
+  }
   const auto& f = F.a;
   const Lanes<T> J = f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1]) -
                      f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0]) +
@@ -591,11 +595,11 @@ SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3L
 
 // Particles ps (at most `lanes`), whose singular values leave [lo, hi]: clamped through the SVD
 // (eq. 11); R_E[at[l]] = U V^T (unless R_E is null), J_P' = J_P J_trial / J_clamped (as in 2D),
-// the Lamé parameters hardened anew and the stress of the new F_E.
+// the hardening computed anew and the stress of the new F_E.
 template <class T>
 SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::span<const int> ps,
                                                    const int* at, Mat<3, T>* F_E, T* J_P,
-                                                   Mat<3, T>* R_E, LameOf<T>* lame,
+                                                   Mat<3, T>* R_E, T* hardening,
                                                    Symmetric<3, T>* tau, T lo, T hi) {
   const Mat3Lanes<T> F = loadLanes(F_E, ps);
   Mat3Lanes<T> U, V;
@@ -619,10 +623,10 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
     const T J_P_before = J_P[p];
     J_P[p] = J_P[p] * J_trial[l] / J_clamped[l];
     // Hardening depends on J_P alone: no exp while it stays as it is.
-    if (J_P[p] != J_P_before) lame[p] = hardenedLame<T>(m, J_P[p]);
+    if (J_P[p] != J_P_before) hardening[p] = hardeningFactor<T>(m, J_P[p]);
   }
   static constexpr bool every[lanes] = {true, true, true, true, true, true, true, true};
-  storeKirchhoffLanes(new_F_E, rotation, ps, lame, every, tau);
+  storeKirchhoffLanes(new_F_E, rotation, ps, unhardenedLame<T>(m), hardening, every, tau);
 }
 
 // The whole return mapping of ps (at most returnMappingBatch), R_E in the order of ps: Newton, the
@@ -630,8 +634,9 @@ SNOWSIM_LANES_INLINE void clampSingularValuesLanes(const SnowMaterial& m, std::s
 // gathered into lanes of their own for the SVD.
 template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E,
-                                     T* J_P, Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau,
+                                     T* J_P, Mat<3, T>* R_E, T* hardening, Symmetric<3, T>* tau,
                                      T lo, T hi) {
+  const LameOf<T> unit = unhardenedLame<T>(m);
   int beyond[returnMappingBatch], beyond_at[returnMappingBatch];
   int count = 0;
   for (size_t first = 0; first < ps.size(); first += lanes) {
@@ -644,19 +649,19 @@ SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int>
     for (int l = 0; l < int(group.size()); ++l) {
       stays[l] = within[l];
       if (stays[l]) {
-        // F_E, J_P and the Lamé parameters stay as they are.
+        // F_E, J_P and the hardening stay as they are.
         if (R_E) storeLane(X, l, R_E[first + l]);
       } else {
         beyond[count] = group[l];
         beyond_at[count++] = int(first) + l;
       }
     }
-    storeKirchhoffLanes(F, X, group, lame, stays, tau);
+    storeKirchhoffLanes(F, X, group, unit, hardening, stays, tau);
   }
   for (int first = 0; first < count; first += lanes)
     clampSingularValuesLanes(m,
                              std::span<const int>(beyond + first, std::min(lanes, count - first)),
-                             beyond_at + first, F_E, J_P, R_E, lame, tau, lo, hi);
+                             beyond_at + first, F_E, J_P, R_E, hardening, tau, lo, hi);
 }
 
 // The arrays of the 3D return mapping, for the builds below.
@@ -665,14 +670,14 @@ struct MappingArrays {
   Mat<3, T>* F_E;
   T* J_P;
   Mat<3, T>* R_E;
-  LameOf<T>* lame;
+  T* hardening;
   Symmetric<3, T>* tau;
 };
 
 template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps,
                                      const MappingArrays<T>& a) {
-  mapInLanes(m, ps, a.F_E, a.J_P, a.R_E, a.lame, a.tau, T(1 - m.theta_c), T(1 + m.theta_s));
+  mapInLanes(m, ps, a.F_E, a.J_P, a.R_E, a.hardening, a.tau, T(1 - m.theta_c), T(1 + m.theta_s));
 }
 template <class T>
 void returnMappingBaseline(const SnowMaterial& m, std::span<const int> ps,
@@ -695,10 +700,10 @@ SNOWSIM_TARGET_AVX512 void returnMappingAvx512(const SnowMaterial& m, std::span<
 // lane rounds as the scalar code does; the cases the scalar code branches on (r = 0, rad = 0,
 // singular values within their bounds) are selected per lane.
 template <class T>
-SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
-                                      LameOf<T>* lame, Symmetric<2, T>* tau,
-                                      const SnowMaterial& m) {
+SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T* J_P, T* hardening,
+                                      Symmetric<2, T>* tau, const SnowMaterial& m) {
   const int n = int(ps.size());
+  const LameOf<T> unit = unhardenedLame<T>(m);
   Lanes<T> f[2][2];
   loadLanes<2, T>(F_E, ps, f);
   const Lanes<T> x = f[0][0] + f[1][1], y = f[1][0] - f[0][1];
@@ -737,9 +742,10 @@ SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T
       J_P[p] = J_P_after[l];
     }
     // Hardening depends on J_P alone: no exp while it stays as it is (a NaN never does).
-    if (J_P[p] != J_P_before[l]) lame[p] = hardenedLame<T>(m, J_P[p]);
-    mu[l] = lame[p].mu;
-    lambda[l] = lame[p].lambda;
+    if (J_P[p] != J_P_before[l]) hardening[p] = hardeningFactor<T>(m, J_P[p]);
+    const LameOf<T> lame = lameOf(unit, hardening[p]);
+    mu[l] = lame.mu;
+    lambda[l] = lame.lambda;
   }
   const Lanes<T> J = f[0][0] * f[1][1] - f[1][0] * f[0][1];
   const Lanes<T> pressure = lambda * (J - 1) * J;
@@ -758,15 +764,15 @@ template <class T>
 struct MappingArrays2 {
   Mat<2, T>* F_E;
   T* J_P;
-  LameOf<T>* lame;
+  T* hardening;
   Symmetric<2, T>* tau;
 };
 template <class T>
 SNOWSIM_LANES_INLINE void mapAllInLanes2(const SnowMaterial& m, std::span<const int> ps,
                                          const MappingArrays2<T>& a) {
   for (size_t first = 0; first < ps.size(); first += lanes)
-    mapInLanes2(ps.subspan(first, std::min<size_t>(lanes, ps.size() - first)), a.F_E, a.J_P, a.lame,
-                a.tau, m);
+    mapInLanes2(ps.subspan(first, std::min<size_t>(lanes, ps.size() - first)), a.F_E, a.J_P,
+                a.hardening, a.tau, m);
 }
 template <class T>
 void returnMapping2Baseline(const SnowMaterial& m, std::span<const int> ps,
@@ -789,8 +795,8 @@ SNOWSIM_TARGET_AVX512 void returnMapping2Avx512(const SnowMaterial& m, std::span
 
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
-                           LameOf<T>* lame, Symmetric<2, T>* tau, VectorIsa isa) {
-  const MappingArrays2<T> arrays{F_E, J_P, lame, tau};
+                           T* hardening, Symmetric<2, T>* tau, VectorIsa isa) {
+  const MappingArrays2<T> arrays{F_E, J_P, hardening, tau};
   switch (isa) {
     case VectorIsa::avx512:
       return returnMapping2Avx512(m, ps, arrays);
@@ -803,13 +809,13 @@ void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2
 
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau, VectorIsa isa) {
+                           Mat<3, T>* R_E, T* hardening, Symmetric<3, T>* tau, VectorIsa isa) {
   // Most snow is within its elastic range most of the time: its polar rotation comes cheaper than
   // an SVD, and when the singular values are inside the bounds F_E and J_P stay as they are.
   for (size_t first = 0; first < ps.size(); first += returnMappingBatch) {
     const std::span<const int> batch =
         ps.subspan(first, std::min<size_t>(returnMappingBatch, ps.size() - first));
-    const MappingArrays<T> arrays{F_E, J_P, R_E ? R_E + first : nullptr, lame, tau};
+    const MappingArrays<T> arrays{F_E, J_P, R_E ? R_E + first : nullptr, hardening, tau};
     switch (isa) {
       case VectorIsa::avx512:
         returnMappingAvx512(m, batch, arrays);
@@ -828,27 +834,27 @@ template <class T>
 T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identity_t<T> J_P,
                         Mat<3, T>& R_E) {
   const int first = 0;
-  LameOf<T> lame = hardenedLame<T>(m, J_P);  // the lanes harden it and take the stress: unused here
+  T hardening = hardeningFactor<T>(m, J_P);  // the lanes harden it and take the stress: unused here
   Symmetric<3, T> tau;
-  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &lame, &tau,
+  plasticReturnMappingJ<T>(m, std::span<const int>(&first, 1), &F_E, &J_P, &R_E, &hardening, &tau,
                            vectorIsa());
   return J_P;
 }
 
-#define SNOWSIM_SNOW_MATERIAL(T)                                                                   \
-  template LameOf<T> hardenedLame<T>(const SnowMaterial&, T);                                      \
-  template Mat<2, T> polarRotation<2, T>(const Mat<2, T>&);                                        \
-  template Mat<3, T> polarRotation<3, T>(const Mat<3, T>&);                                        \
-  template void signedSvd<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);             \
-  template void signedSvd<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);             \
-  template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);                \
-  template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);                \
-  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);             \
-  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&);             \
-  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*,    \
-                                         T*, Mat<3, T>*, LameOf<T>*, Symmetric<3, T>*, VectorIsa); \
-  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<2, T>*,    \
-                                         T*, LameOf<T>*, Symmetric<2, T>*, VectorIsa);
+#define SNOWSIM_SNOW_MATERIAL(T)                                                                \
+  template T hardeningFactor<T>(const SnowMaterial&, T);                                        \
+  template Mat<2, T> polarRotation<2, T>(const Mat<2, T>&);                                     \
+  template Mat<3, T> polarRotation<3, T>(const Mat<3, T>&);                                     \
+  template void signedSvd<2, T>(const Mat<2, T>&, Mat<2, T>&, Vec<2, T>&, Mat<2, T>&);          \
+  template void signedSvd<3, T>(const Mat<3, T>&, Mat<3, T>&, Vec<3, T>&, Mat<3, T>&);          \
+  template Mat<2, T> fixedCorotatedPiola<2, T>(const Mat<2, T>&, const LameOf<T>&);             \
+  template Mat<3, T> fixedCorotatedPiola<3, T>(const Mat<3, T>&, const LameOf<T>&);             \
+  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<2, T>&, T, Mat<2, T>&);          \
+  template T plasticReturnMappingJ<T>(const SnowMaterial&, Mat<3, T>&, T, Mat<3, T>&);          \
+  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<3, T>*, \
+                                         T*, Mat<3, T>*, T*, Symmetric<3, T>*, VectorIsa);      \
+  template void plasticReturnMappingJ<T>(const SnowMaterial&, std::span<const int>, Mat<2, T>*, \
+                                         T*, T*, Symmetric<2, T>*, VectorIsa);
 SNOWSIM_SNOW_MATERIAL(double)
 SNOWSIM_SNOW_MATERIAL(float)
 #undef SNOWSIM_SNOW_MATERIAL

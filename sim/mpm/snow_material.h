@@ -43,8 +43,26 @@ struct LameOf {
   T lambda;
 };
 using Lame = LameOf<Real>;
+// The hardening factor h alone, which is what a particle keeps: 4 bytes in float where the pair
+// would take 8, and its Lamé pair from it (lameOf) is the same bits as hardenedLame's.
 template <class T = Real>
-LameOf<T> hardenedLame(const SnowMaterial& m, std::type_identity_t<T> J_P);
+T hardeningFactor(const SnowMaterial& m, std::type_identity_t<T> J_P);
+template <class T>
+LameOf<T> unhardenedLame(const SnowMaterial& m) {
+  return {T(m.mu0()), T(m.lambda0())};
+}
+template <class T>
+LameOf<T> lameOf(const LameOf<T>& unhardened, std::type_identity_t<T> hardening) {
+  return {unhardened.mu * hardening, unhardened.lambda * hardening};
+}
+template <class T>
+LameOf<T> lameOf(const SnowMaterial& m, T hardening) {
+  return lameOf(unhardenedLame<T>(m), hardening);
+}
+template <class T = Real>
+LameOf<T> hardenedLame(const SnowMaterial& m, std::type_identity_t<T> J_P) {
+  return lameOf<T>(m, hardeningFactor<T>(m, J_P));
+}
 
 // The functions below compute in the scalar T: double unless asked for, or float for a state kept
 // in single precision (mpm.precision); the material's parameters are rounded to T. Their matrix
@@ -128,8 +146,8 @@ T plasticReturnMappingJ(const SnowMaterial& m, Mat<3, T>& F_E, std::type_identit
                         Mat<3, T>& R_E);
 // The 3D one for particles ps of the arrays F_E and J_P, with the results of the call above
 // for each, the rotations in the order of ps (R_E[i] that of particle ps[i]; none if R_E is
-// null), and, so that no rotation need be kept per particle, each one's Lamé parameters hardened
-// anew where J_P changed and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a
+// null), and, so that no rotation need be kept per particle, each one's hardening factor
+// computed anew where J_P changed and its Kirchhoff stress (fixedCorotatedKirchhoffUpper) in tau: a
 // particle per vector lane, returnMappingLanes at a time, and those of each returnMappingBatch
 // beyond their bounds gathered for the SVD; compiled for isa (vectorIsa(); each build gives the
 // same results).
@@ -137,14 +155,14 @@ inline constexpr int returnMappingLanes = 8;
 inline constexpr int returnMappingBatch = 64;
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E, T* J_P,
-                           Mat<3, T>* R_E, LameOf<T>* lame, Symmetric<3, T>* tau, VectorIsa isa);
+                           Mat<3, T>* R_E, T* hardening, Symmetric<3, T>* tau, VectorIsa isa);
 
 // The 2D one for particles ps, the rotations not kept: each particle's F_E and J_P as the call
-// above leaves them, its Lamé parameters hardened anew where J_P changed and its Kirchhoff stress
+// above leaves them, its hardening factor computed anew where J_P changed and its Kirchhoff stress
 // in tau, a particle per vector lane; bit for bit the scalar closed form on every build.
 template <class T>
 void plasticReturnMappingJ(const SnowMaterial& m, std::span<const int> ps, Mat<2, T>* F_E, T* J_P,
-                           LameOf<T>* lame, Symmetric<2, T>* tau, VectorIsa isa);
+                           T* hardening, Symmetric<2, T>* tau, VectorIsa isa);
 
 // P-wave speed sqrt((lambda + 2 mu) / rho), used by the CFL limit.
 template <class T>

@@ -96,7 +96,6 @@ void DensityHybridSolver<D>::computeParticleVolumes() {
       Real rho = 0;
       forEachStencilNode<D, K>(grid_, particles_.x[p],
                                [&](int i, Real w, const Vec<D>&) { rho += w * node_density_[i]; });
-      particles_.density[p] = rho;
       particles_.volume[p] = particles_.mass[p] / rho;
       density_sum += rho;
       mass_sum += particles_.mass[p];

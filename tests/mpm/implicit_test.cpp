@@ -189,15 +189,16 @@ void checkSymmetry(const std::string& transfer) {
   std::mt19937 rng(11);
   const int n = solver.particles().size();
   std::vector<Mat<D>> F(n);
-  std::vector<Lame> lame(n);
-  std::uniform_real_distribution<Real> hardening(0.9, 1.1);
+  std::vector<Real> hardening(n);
+  std::uniform_real_distribution<Real> J_P(0.9, 1.1);
   for (int p = 0; p < n; ++p) {
     F[p] = randomDeformation<D>(rng, 0.2);
-    lame[p] = hardenedLame(solver.material(), hardening(rng));
+    hardening[p] = hardeningFactor(solver.material(), J_P(rng));
   }
   ImplicitVelocitySolve<D> op;
   const Real dt = 1e-3;
-  op.prepare(solver.grid(), solver.fields(), solver.particles(), F, lame, solver.params(), dt);
+  op.prepare(solver.grid(), solver.fields(), solver.particles(), F, solver.material(), hardening,
+             solver.params(), dt);
   const int size = op.activeNodes() * D;
   ASSERT_GT(size, 0);
   Eigen::VectorXd u(size), w(size), Au(size), Aw(size), Iu(size);
@@ -238,11 +239,8 @@ void checkBlockPreconditioner(int most_iterations) {
   std::mt19937 rng(13);
   const int n = solver.particles().size();
   std::vector<Mat<D>> F(n);
-  std::vector<Lame> lame(n);
-  for (int p = 0; p < n; ++p) {
-    F[p] = randomDeformation<D>(rng, 0.1);
-    lame[p] = hardenedLame(solver.material(), 0.85);  // J_P = 0.85: hardening e^1.5
-  }
+  std::vector<Real> hardening(n, hardeningFactor(solver.material(), 0.85));  // J_P 0.85: e^1.5
+  for (int p = 0; p < n; ++p) F[p] = randomDeformation<D>(rng, 0.1);
   const Real dt = 10 * solver.cflTimeStep();
   GridFields<D> fields = solver.fields();
   std::vector<Mat<D>> node_free(solver.grid().nodeCount(), Mat<D>::Identity());
@@ -255,7 +253,8 @@ void checkBlockPreconditioner(int most_iterations) {
     if (on_ground) node_free[k] = Mat<D>::Zero();
   }
   ImplicitVelocitySolve<D> op;
-  op.prepare(solver.grid(), fields, solver.particles(), F, lame, solver.params(), dt);
+  op.prepare(solver.grid(), fields, solver.particles(), F, solver.material(), hardening,
+             solver.params(), dt);
   const Real tolerance = 1e-8;
   GridFields<D> by_mass = fields, by_block = fields;
   const KrylovResult mass =

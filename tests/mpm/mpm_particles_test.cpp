@@ -37,7 +37,7 @@ TEST(MpmParticles, StartUnstrained) {
   });
   EXPECT_EQ(mpm.F_E[1], Mat<3>::Identity());
   EXPECT_EQ(mpm.J_P[0], 1);
-  EXPECT_EQ(mpm.lame[0].mu, material.mu0());
+  EXPECT_EQ(mpm.hardening[0], 1);
   EXPECT_EQ(mpm.x[1], p.x[1]);
 }
 

@@ -27,7 +27,7 @@ namespace {
 struct FigureOptions {
   std::string name;  // a figure of figures.json, or a scene file (ending in .json)
   std::string out = "out/figures";
-  std::string figures;  // empty: the first of defaultFigurePaths() that exists
+  std::string figures;  // empty: the first of scenesPaths("scenes/figures.json") that exists
   std::vector<double> times;
   std::vector<std::string> overrides;
   std::string title;
@@ -38,31 +38,10 @@ struct FigureOptions {
 // Panels of the report's size unless the scene or the command line gives one.
 constexpr int kPanelWidth = 320, kPanelHeight = 352;
 
-// Where figures.json is looked for without --figures: the current directory (a checkout of the
-// sources), then beside the executable (the build tree, a moved binary with its scenes), then an
-// installation's share directory.
-std::vector<std::string> defaultFigurePaths() {
-  std::vector<std::string> paths = {"scenes/figures.json"};
-  std::error_code error;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (!error) {
-    paths.push_back((exe.parent_path() / "scenes/figures.json").string());
-    paths.push_back(
-        (exe.parent_path().parent_path() / "share/snowsim/scenes/figures.json").string());
-  }
-  return paths;
-}
-
 std::string figuresFile(const std::string& given) {
   if (!given.empty()) return given;
-  const std::vector<std::string> paths = defaultFigurePaths();
-  std::string tried;
-  for (const std::string& path : paths) {
-    if (std::filesystem::exists(path)) return path;
-    tried += (tried.empty() ? "" : ", ") + path;
-  }
-  throw InputError("no figure descriptions found (looked for " + tried +
-                   "); give their file with --figures");
+  return findInScenes("scenes/figures.json", "figure descriptions",
+                      "give their file with --figures");
 }
 
 std::string timeLabel(const std::string& prefix, double t) {
@@ -82,6 +61,7 @@ class SceneStrip {
     if (!scene.render.width) base.width = kPanelWidth;
     if (!scene.render.height) base.height = kPanelHeight;
     settings_ = options.render.settings(base);
+    options.render.warnAboutUnused(scene.dimension);
     if (shared_range && !options.render.givesColourRange()) settings_.color_range = shared_range;
     if (settings_.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm)
       throw InputError("--color-by plastic: " + scene.file +

@@ -19,6 +19,11 @@ int main(int argc, char** argv) {
       "renders it off-screen into PNG frames, MP4 videos and figure strips."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "snowsim " SNOWSIM_VERSION " (commit " SNOWSIM_COMMIT ")");
+  // The parser's errors in the form of snowsim's own, with where to read more.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("snowsim: error: ") + e.what() +
+           "\n(snowsim COMMAND --help lists the options)\n";
+  });
   snowsim::recordCommandLine(argc, argv);
   snowsim::addRunCommand(app);
   snowsim::addResumeCommand(app);

@@ -4,6 +4,9 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
+
+#include "sim/core/errors.h"
 
 namespace snowsim {
 
@@ -32,7 +35,8 @@ void addThreadsOption(CLI::App& command, int& threads) {
   command
       .add_option("--threads", threads,
                   "Threads of the MPM solver (default: OMP_NUM_THREADS, else every core); the "
-                  "simulated frames do not depend on it")
+                  "simulated frames do not depend on it. Drawing (llvmpipe: LP_NUM_THREADS) and "
+                  "the MP4 encoder use the cores they find")
       ->check(CLI::Validator(check, "1 to 1024"));
 }
 
@@ -58,6 +62,27 @@ CLI::Validator zeroOrMore(bool whole) {
 void addOffFlag(CLI::App& command, const std::string& name, bool& value, const std::string& help) {
   command.add_flag_callback(
       name, [&value] { value = false; }, help);
+}
+
+std::vector<std::string> scenesPaths(const std::string& path) {
+  std::vector<std::string> paths = {path};
+  std::error_code error;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    paths.push_back((exe.parent_path() / path).string());
+    paths.push_back((exe.parent_path().parent_path() / "share/snowsim" / path).string());
+  }
+  return paths;
+}
+
+std::string findInScenes(const std::string& path, const std::string& what,
+                         const std::string& advice) {
+  std::string tried;
+  for (const std::string& candidate : scenesPaths(path)) {
+    if (std::filesystem::exists(candidate)) return candidate;
+    tried += (tried.empty() ? "" : ", ") + candidate;
+  }
+  throw InputError("no " + what + " found (looked for " + tried + "); " + advice);
 }
 
 }  // namespace snowsim

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -31,6 +32,7 @@ struct RunSummary {
   double fps = 30;
   std::string name = "frames";
   int dimension = 3;  // unknown without run.json: frame the snow in case
+  bool dimension_known = false;
   // How the run drew its frames, or would have: the image size, the 3D camera as placed, the
   // colouring (none recorded: white) and its range (none recorded: the renderer's default).
   std::optional<std::array<int, 2>> image;
@@ -81,6 +83,7 @@ void readRunJson(const std::filesystem::path& dir, RunSummary& run) {
   run.fps = summary.value("fps", run.fps);
   run.name = summary.value("scene", run.name);
   run.dimension = summary.value("dimension", run.dimension);
+  run.dimension_known = summary.contains("dimension");
   const std::string file = (dir / "run.json").string();
   try {
     if (summary.contains("image")) run.image = summary["image"].get<std::array<int, 2>>();
@@ -143,6 +146,8 @@ void scanFrames(const std::vector<std::string>& files, ColorBy by, Bounds& bound
 }
 
 void renderFrames(const RenderCommandOptions& options) {
+  if (!options.render.png && !options.render.mp4)
+    throw InputError("--no-png and --no-mp4: nothing left to write; drop one of them");
   const std::vector<std::string> files = plyFramesIn(options.frames);
   const RunSummary run = readRunSummary(options.frames);
   // Every setting is checked before anything is written. What the command line does not give
@@ -152,6 +157,7 @@ void renderFrames(const RenderCommandOptions& options) {
   if (!run.drawing.is_null()) applyDrawing(run.drawing, "run.json: drawing", run_drawing);
   if (run.colour_by) run_drawing.color_by = *run.colour_by;
   RenderSettings settings = options.render.settings(run_drawing);
+  if (run.dimension_known) options.render.warnAboutUnused(run.dimension);
   const bool runs_colouring = run.colour_by && settings.color_by == *run.colour_by;
   if (runs_colouring && !options.render.givesColourRange()) settings.color_range = run.colour_range;
   if (settings.color_by == ColorBy::Plastic && readPly(files.front()).plastic_j.empty())
@@ -190,6 +196,9 @@ void renderFrames(const RenderCommandOptions& options) {
     sink.write(frame);
   }
   sink.finish();
+  std::string written = options.render.png ? "frame_NNNNN.png" : "";
+  if (options.render.mp4) written += (written.empty() ? "" : " and ") + run.name + ".mp4";
+  std::printf("%zu frames drawn into %s: %s\n", files.size(), out.c_str(), written.c_str());
 }
 
 }  // namespace

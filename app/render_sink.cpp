@@ -25,7 +25,7 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
   command_ = &command;
   command.add_option("--width", width, "Image width in pixels (16 to 8192; default 1280)");
   command.add_option("--height", height, "Image height in pixels (16 to 8192; default 720)");
-  command.add_option("--color-by", color_by,
+  command.add_option("--color-by,--colour-by", color_by,
                      "Particle colour: white, density, speed or plastic (MPM's J_P)");
   command.add_flag("--no-grid", no_grid, "Do not draw the simulation grid behind the particles");
   command.add_flag("--density-cells", density_cells,
@@ -52,7 +52,7 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
   addOffFlag(command, "--no-shadows", shadows, "3D: the key light casts no shadows");
   addOffFlag(command, "--no-occlusion", occlusion, "3D: no ambient occlusion between spheres");
   command
-      .add_option("--color-range", color_range,
+      .add_option("--color-range,--colour-range", color_range,
                   "low,high: the values the colour map spans, fixed for every frame (default: "
                   "the scene's render.color_range, else a physical range; docs/rendering.md)")
       ->delimiter(',')
@@ -107,6 +107,20 @@ bool RenderOptions::givesFov() const {
 }
 bool RenderOptions::givesCameraUp() const {
   return given("--camera-up");
+}
+
+void RenderOptions::warnAboutUnused(int dimension) const {
+  const std::vector<const char*> unused =
+      dimension == 2
+          ? std::vector<const char*>{"--camera-eye",    "--camera-target", "--camera-up",   "--fov",
+                                     "--camera-preset", "--no-shadows",    "--no-occlusion"}
+          : std::vector<const char*>{"--density-cells"};
+  std::string names;
+  for (const char* name : unused)
+    if (given(name)) names += (names.empty() ? "" : ", ") + std::string(name);
+  if (!names.empty())
+    std::fprintf(stderr, "snowsim: warning: %s: not used for %dD frames, ignored\n", names.c_str(),
+                 dimension);
 }
 
 nlohmann::json cameraJson(const Camera& camera) {

@@ -50,6 +50,10 @@ struct RenderOptions {
   // The scene's settings with the options given on the command line applied; throws InputError
   // for a bad value.
   RenderSettings settings(RenderSettings scene) const;
+  // A warning on stderr naming the options given that frames of this dimension do not use (the
+  // camera's and the 3D lighting's in 2D, --density-cells in 3D), so that none is ignored
+  // silently.
+  void warnAboutUnused(int dimension) const;
   // The video settings for frames simulated at scene_fps, drawn at width x height (the image
   // settings' size); checked (InputError) when MP4 is on.
   VideoSettings videoSettings(double scene_fps, int width, int height) const;

@@ -326,6 +326,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
   refuseBodiesNarrowerThanTheirParticles(scene);
   // Every setting is checked before anything is written.
   RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
+  if (writes) options.render.warnAboutUnused(scene.dimension);
   if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
       (options.render.png || options.render.mp4))
     throw InputError("--color-by plastic: " + scene.file +
@@ -670,7 +671,7 @@ void addRunCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("run", "Simulate a scene and write its frames to a directory");
   addRunOptions(cmd, options.get(), true);
   cmd->footer(
-      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density plastic_j mass "
+      "Writes frame_NNNNN.ply per frame (binary PLY: x y z vx vy vz density plastic_j (MPM) mass "
       "pscale id; docs/scene-format.md, \"Output files\"), frame_NNNNN.png "
       "(the particles as shaded spheres over the grid), SCENE_NAME.mp4 (those frames as a video) "
       "and run.json (steps, step sizes, simulated time, wall time and where it went stage by "

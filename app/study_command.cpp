@@ -26,7 +26,7 @@ namespace {
 
 struct StudyOptions {
   std::string preset = "full";
-  std::string scenes = "scenes";
+  std::string scenes;  // empty: the first of scenesPaths("scenes") that exists
   std::string out = "docs/study/results.csv";
   int threads = 0;                 // the MPM solver's threads; 0: the OpenMP default
   std::string shard;               // "i/n": run the i-th of n shares of the sweep; empty: all of it
@@ -519,7 +519,9 @@ int runSweep(const StudyOptions& options, const Sweep& sweep, const std::string&
 
 void study(const StudyOptions& options) {
   const std::vector<Sweep> preset = presetNamed(options.preset);
-  Scenes scenes(options.scenes);
+  Scenes scenes(options.scenes.empty()
+                    ? findInScenes("scenes", "scene directory", "give it with --scenes")
+                    : options.scenes);
   std::optional<std::set<std::string>> owned;
   if (!options.shard.empty()) owned = keysOfShard(preset, parseShard(options.shard), scenes);
   // Every scene of the preset is read before anything is written: a missing or broken one
@@ -636,8 +638,10 @@ void addStudyCommand(CLI::App& app) {
   cmd->add_flag_callback(
       "--quick", [options] { options->preset = "quick"; },
       "Same as --preset quick: 21 short runs, seconds, for CI");
-  cmd->add_option("--scenes", options->scenes, "Directory holding the scene files")
-      ->capture_default_str();
+  cmd->add_option("--scenes", options->scenes,
+                  "Directory holding the scene files. Default: scenes/ in the current "
+                  "directory, else beside the executable (EXE_DIR/scenes), else in an "
+                  "installation (EXE_DIR/../share/snowsim/scenes)");
   cmd->add_option("-o,--out", options->out,
                   "CSV file; rows already measured by this build "
                   "are kept and skipped")

@@ -41,22 +41,28 @@ Look parseLook(const std::string& name, const std::string& where) {
 
 void validate(const RenderSettings& s) {
   if (s.width < 16 || s.width > 8192 || s.height < 16 || s.height > 8192)
-    throw InputError("image size " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+    throw InputError("image size (--width, --height; render.width, render.height) " +
+                     std::to_string(s.width) + "x" + std::to_string(s.height) +
                      " is out of range; allowed: 16 to 8192 pixels each way");
-  if (s.sphere_radius < 0) throw InputError("sphere radius must not be negative");
+  if (s.sphere_radius < 0)
+    throw InputError("sphere radius (--sphere-radius, render.sphere_radius) " +
+                     numberText(s.sphere_radius) + " is out of range; allowed: 0 or more metres");
   if (!(s.camera.fov_degrees > 0 && s.camera.fov_degrees < 180))
-    throw InputError("camera field of view " + numberText(s.camera.fov_degrees) +
+    throw InputError("camera field of view (--fov, render.camera.fov) " +
+                     numberText(s.camera.fov_degrees) +
                      " is out of range; allowed: (0, 180) degrees");
   if (s.camera.custom && s.camera.eye == s.camera.target)
-    throw InputError("camera eye and target must differ");
+    throw InputError(
+        "camera eye and target (--camera-eye, --camera-target; render.camera) must differ");
   if (const auto& b = s.background)
     for (double c : *b)
       if (!(c >= 0 && c <= 1))
         throw InputError("background colour (--background, render.background): " + numberText(c) +
                          " is out of range; allowed: 0 to 1 (red, green, blue)");
   if (s.color_range && !(s.color_range->high > s.color_range->low))
-    throw InputError("colour range [" + numberText(s.color_range->low) + ", " +
-                     numberText(s.color_range->high) + "] is empty; allowed: low < high");
+    throw InputError("colour range (--color-range, render.color_range) [" +
+                     numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
+                     "] is empty; allowed: low < high");
 }
 
 namespace {

@@ -88,9 +88,17 @@ void syncFile(const std::string& written, const std::string& path) {
 void prepareOutputDirectory(const std::string& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec || !std::filesystem::is_directory(dir))
+  if (ec || !std::filesystem::is_directory(dir)) {
+    // The OS's reason, and where it stopped: "No such file or directory" for a directory in /proc
+    // reads as if /proc were missing.
+    std::filesystem::path existing = std::filesystem::absolute(dir).parent_path();
+    while (!existing.empty() && existing != existing.root_path() &&
+           !std::filesystem::exists(existing))
+      existing = existing.parent_path();
     throw InputError(dir + ": cannot create the output directory" +
-                     (ec ? " (" + ec.message() + ")" : std::string(" (a file is in the way)")));
+                     (ec ? " (" + ec.message() + "; in " + existing.string() + ")"
+                         : std::string(" (a file is in the way)")));
+  }
   const std::string probe = dir + "/.snowsim-write-test";
   std::ofstream out(probe);
   if (!out) throw InputError(dir + ": the output directory is not writable");

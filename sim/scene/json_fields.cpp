@@ -217,10 +217,13 @@ const Json* JsonFields::array(const std::string& key, bool required) {
 void JsonFields::finish() const {
   for (auto it = object_.begin(); it != object_.end(); ++it) {
     if (read_.count(it.key())) continue;
+    // A field the key begins (checkpoint_every for checkpoint_every_frames) before the nearest
+    // spelling, which for a shortened name may be another field of the same prefix.
     std::string best;
     int best_distance = 1 << 30;
     for (const std::string& k : known_) {
-      const int d = editDistance(it.key(), k);
+      const bool begins = it.key().size() >= 3 && k.rfind(it.key(), 0) == 0;
+      const int d = begins ? -1 : editDistance(it.key(), k);
       if (d < best_distance) best_distance = d, best = k;
     }
     std::string message = "unknown field";

@@ -465,7 +465,8 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
     const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
     if (b.center[a] - half < -1e-12 || b.center[a] + half > extent[a] + 1e-12) {
       std::ostringstream s;
-      s << "the body reaches outside the grid along axis "
+      s << "the body (its center and " << (b.shape == BodyShape::Box ? "size" : "radius")
+        << ") reaches outside the grid along axis "
         << "xyz"[a] << " ([" << b.center[a] - half << ", " << b.center[a] + half
         << "] m; the grid spans [0, " << extent[a] << "] m)";
       f.fail("center", s.str());

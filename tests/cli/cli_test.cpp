@@ -113,6 +113,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
                  "time.dt: -1 is out of range");
   expectRejected("run " + scene("snowball_drop") + " --set bodies.0.raduis=0.01",
                  "did you mean \"radius\"");
+  expectRejected("run " + scene("snowball_drop") + " --set output.checkpoint_every=3",
+                 "did you mean \"checkpoint_every_frames\"");
   expectRejected("run " + scene("snowball_drop") + " --set grid.cells=[0,12]", "grid.cells");
   expectRejected("run " + scene("snowball_drop") + " --set bodies.0.center=[0.5,0.05]",
                  "outside the grid");
@@ -141,6 +143,10 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("figure fig2 --set time.duration=0.01", "fig2.rows[0].times: 0.02 is not");
   expectRejected("run " + scene("snowball_drop") + " --look noir", "allowed: studio, figure");
   expectRejected("run " + scene("snowball_drop") + " --background 1,2,0", "--background");
+  expectRejected("run " + scene("mpm_snowball_drop_3d") + " --fov 0",
+                 "camera field of view (--fov, render.camera.fov) 0 is out of range");
+  expectRejected("run " + scene("snowball_drop") + " --color-range 3,1",
+                 "colour range (--color-range, render.color_range) [3, 1] is empty");
   expectRejected("run " + scene("snowball_drop") + " --set render.look=noir", "render.look");
 }
 
@@ -547,6 +553,10 @@ TEST(Cli, RenderRedrawsSavedFrames) {
       runSnowsim("render " + out.string() + " --color-by density --width 200 --height 100");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
+  EXPECT_NE(r.output.find("3 frames drawn into " + out.string()), std::string::npos) << r.output;
+  const Result nothing = runSnowsim("render " + out.string() + " --no-png --no-mp4");
+  EXPECT_EQ(nothing.code, 2) << nothing.output;
+  EXPECT_NE(nothing.output.find("nothing left to write"), std::string::npos) << nothing.output;
   // A damaged frame stops it before the first image, also where the run's own colouring and
   // camera leave nothing to read from the frames.
   fs::resize_file(out / "frame_00002.ply", fs::file_size(out / "frame_00002.ply") / 2);
@@ -920,6 +930,46 @@ TEST(Cli, FigureFindsItsDescriptionsFromAnyDirectory) {
     EXPECT_EQ(r.code, 0) << r.output;
     EXPECT_TRUE(fs::exists(binary.parent_path() / "out" / "tiny.png")) << binary;
   }
+}
+
+// Options a 2D scene's frames have no use for are named, not dropped silently.
+TEST(Cli, ThreeDimensionalOptionsOnATwoDimensionalSceneAreNamed) {
+  const fs::path out = freshDir("unused_options");
+  const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                              " --set time.duration=0.02 --no-mp4 --fov 20 --no-shadows");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: --fov, --no-shadows: not used for 2D frames"),
+            std::string::npos)
+      << r.output;
+  const Result three =
+      runSnowsim("run " + scene("mpm_snowball_drop_3d") + " -o " + (out / "3d").string() +
+                 " --set time.duration=0.01 --no-mp4 --fov 20 --density-cells");
+  ASSERT_EQ(three.code, 0) << three.output;
+  EXPECT_NE(three.output.find("warning: --density-cells: not used for 3D frames"),
+            std::string::npos)
+      << three.output;
+  EXPECT_EQ(three.output.find("--fov"), std::string::npos) << three.output;
+}
+
+// Without --scenes a study reads scenes/ of the current directory, else the scenes beside the
+// binary (the build tree's), as figure does; a binary with neither says where it looked.
+TEST(Cli, StudyFindsItsScenesFromAnyDirectory) {
+  const fs::path dir = freshDir("study_cwd");
+  fs::create_directories(dir / "elsewhere");
+  Result r = runCommand("cd " + (dir / "elsewhere").string() + " && " + SNOWSIM_BINARY +
+                        " study --quick -o quick.csv");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "elsewhere" / "quick.csv"));
+
+  const fs::path moved = dir / "moved" / "snowsim";
+  fs::create_directories(moved.parent_path());
+  fs::copy_file(SNOWSIM_BINARY, moved);
+  r = runCommand("cd " + (dir / "elsewhere").string() + " && " + moved.string() +
+                 " study --quick -o moved.csv");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("give it with --scenes"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find((dir / "moved" / "scenes").string()), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "elsewhere" / "moved.csv"));
 }
 
 }  // namespace

@@ -126,7 +126,8 @@ TEST(Scene, ViscosityIsReadAndChecked) {
 
 TEST(Scene, BodyOutsideTheGridIsRejected) {
   const std::string message = errorOf(kMinimal, {"bodies.0.center=[0.095,0.06]"});
-  EXPECT_NE(message.find("bodies[0].center: the body reaches outside the grid along axis x"),
+  EXPECT_NE(message.find("bodies[0].center: the body (its center and radius) reaches outside the "
+                         "grid along axis x"),
             std::string::npos)
       << message;
 }

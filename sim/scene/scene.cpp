@@ -228,9 +228,9 @@ MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
                     ? MpmPrecision::Double
                     : MpmPrecision::Float;
   if (p.precision == MpmPrecision::Float && p.integrator == MpmIntegrator::SemiImplicit)
-    throw InputError(file +
-                     ": mpm.precision \"float\" runs only mpm.integrator \"explicit\"; "
-                     "set mpm.precision to \"double\" for the semi-implicit integrator");
+    f.fail("precision",
+           "\"float\" runs only mpm.integrator \"explicit\"; set it (or --precision) to "
+           "\"double\" for the semi-implicit integrator");
   if (const Json* walls = f.object("walls", false)) {
     JsonFields w(*walls, "mpm.walls", file);
     p.wall_type = parseColliderType(w, "type", "separating");

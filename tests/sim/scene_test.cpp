@@ -68,6 +68,13 @@ TEST(Scene, PrecisionDefaultsToFloatForExplicit3D) {
             MpmPrecision::Double);
   EXPECT_EQ(precision({"solver=mpm", "dimension=3", "mpm.precision=double"}), MpmPrecision::Double);
   EXPECT_EQ(precision({"solver=mpm", "mpm.precision=float"}), MpmPrecision::Float);
+  // Asked for both, float and the semi-implicit integrator: the assignment that asked is named.
+  const std::string both =
+      errorOf(kMinimal, {"solver=mpm", "mpm.integrator=semi_implicit", "mpm.precision=float"});
+  EXPECT_NE(both.find("--set mpm.precision=float"), std::string::npos) << both;
+  EXPECT_NE(both.find("mpm.precision: \"float\" runs only mpm.integrator \"explicit\""),
+            std::string::npos)
+      << both;
 }
 
 TEST(Scene, MalformedJsonNamesFileLineAndColumn) {

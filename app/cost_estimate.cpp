@@ -62,14 +62,14 @@ double CostEstimate::stepCount() const {
 }
 
 std::string CostEstimate::before() const {
-  char text[400];
+  char text[400];  // the scene's name, of any length, goes in front
   std::snprintf(text, sizeof text,
-                "%s: %s particles, %s; %.3g s %s at a first step of %.2g s: about %s "
+                ": %s particles, %s; %.3g s %s at a first step of %.2g s: about %s "
                 "steps, %s particle-steps",
-                name_.c_str(), roughCount(particles_).c_str(), grid_.c_str(), duration_,
+                roughCount(particles_).c_str(), grid_.c_str(), duration_,
                 resumed_ ? "left to simulate" : "simulated", initial_step_,
                 roughCount(stepCount()).c_str(), roughCount(particle_steps_).c_str());
-  return text;
+  return name_ + text;
 }
 
 std::string CostEstimate::afterStep(const Simulation& simulation) {
@@ -83,15 +83,14 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   // A semi-implicit step's solve takes more iterations once the snow meets a collider or
   // hardens, which the first steps of a falling body do not show.
   const bool solves = simulation.implicitSolves().solves > 0;
-  char text[400];
+  char text[400];  // the scene's name, of any length, goes in front
   std::snprintf(
       text, sizeof text,
-      "%s: estimate: the steps take about %s (%s particle-steps a second over steps "
+      ": estimate: the steps take about %s (%s particle-steps a second over steps "
       "2-%d; more if the step shrinks%s); rendering and writing frames come on top",
-      name_.c_str(), roughDuration(particle_steps_ / rate).c_str(), roughCount(rate).c_str(),
-      1 + measured_steps,
+      roughDuration(particle_steps_ / rate).c_str(), roughCount(rate).c_str(), 1 + measured_steps,
       solves ? " or its solves take more iterations, as they do once the snow lands" : "");
-  return text;
+  return name_ + text;
 }
 
 }  // namespace snowsim

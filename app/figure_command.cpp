@@ -1,9 +1,9 @@
 // snowsim figure NAME | SCENE.json: a strip of frames like the report's figures, either one of
 // the report's (scenes/figures.json) or of any scene at chosen times.
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -61,7 +61,6 @@ class SceneStrip {
     if (!scene.render.width) base.width = kPanelWidth;
     if (!scene.render.height) base.height = kPanelHeight;
     settings_ = options.render.settings(base);
-    options.render.warnAboutUnused(scene.dimension);
     if (shared_range && !options.render.givesColourRange()) settings_.color_range = shared_range;
     if (settings_.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm)
       throw InputError("--color-by plastic: " + scene.file +
@@ -119,6 +118,7 @@ void sceneFigure(const FigureOptions& options) {
                        " is not allowed; allowed: ascending times from 0 to the scene's "
                        "duration, " +
                        numberText(scene.duration) + " s");
+  options.render.warnAboutUnused(scene.dimension);
   SceneStrip strip(scene, options, std::nullopt);
   prepareOutputDirectory(options.out);
   std::vector<std::vector<Panel>> panels(1);
@@ -164,6 +164,10 @@ void reportFigure(const FigureOptions& options) {
     row.finish();
     strips.push_back({std::move(scene), label, times});
   }
+  std::set<int> dimensions;
+  for (const Row& row : strips)
+    if (dimensions.insert(row.scene.dimension).second)
+      options.render.warnAboutUnused(row.scene.dimension);
 
   prepareOutputDirectory(options.out);
   std::vector<std::vector<Panel>> panels;

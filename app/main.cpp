@@ -20,9 +20,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "snowsim " SNOWSIM_VERSION " (commit " SNOWSIM_COMMIT ")");
   // The parser's errors in the form of snowsim's own, with where to read more.
-  app.failure_message([](const CLI::App*, const CLI::Error& e) {
-    return std::string("snowsim: error: ") + e.what() +
-           "\n(snowsim COMMAND --help lists the options)\n";
+  const std::string command = argc > 1 && argv[1][0] != '-' ? argv[1] : "COMMAND";
+  app.failure_message([command](const CLI::App*, const CLI::Error& e) {
+    return "snowsim: error: " + std::string(e.what()) + "\n(snowsim " + command +
+           " --help lists the options)\n";
   });
   snowsim::recordCommandLine(argc, argv);
   snowsim::addRunCommand(app);

@@ -78,10 +78,13 @@ std::vector<std::string> scenesPaths(const std::string& path) {
 std::string findInScenes(const std::string& path, const std::string& what,
                          const std::string& advice) {
   std::string tried;
-  for (const std::string& candidate : scenesPaths(path)) {
-    if (std::filesystem::exists(candidate)) return candidate;
+  const std::vector<std::string> candidates = scenesPaths(path);
+  for (const std::string& candidate : candidates) {
+    std::error_code unreadable;  // a directory we may not look into: not found there
+    if (std::filesystem::exists(candidate, unreadable)) return candidate;
     tried += (tried.empty() ? "" : ", ") + candidate;
   }
+  if (candidates.size() == 1) tried += "; where the executable lies is unknown";
   throw InputError("no " + what + " found (looked for " + tried + "); " + advice);
 }
 

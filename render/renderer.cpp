@@ -44,9 +44,10 @@ void validate(const RenderSettings& s) {
     throw InputError("image size (--width, --height; render.width, render.height) " +
                      std::to_string(s.width) + "x" + std::to_string(s.height) +
                      " is out of range; allowed: 16 to 8192 pixels each way");
-  if (s.sphere_radius < 0)
+  if (!(s.sphere_radius >= 0 && s.sphere_radius <= 10))
     throw InputError("sphere radius (--sphere-radius, render.sphere_radius) " +
-                     numberText(s.sphere_radius) + " is out of range; allowed: 0 or more metres");
+                     numberText(s.sphere_radius) +
+                     " is out of range; allowed: 0 to 10 m (0: half the particle spacing)");
   if (!(s.camera.fov_degrees > 0 && s.camera.fov_degrees < 180))
     throw InputError("camera field of view (--fov, render.camera.fov) " +
                      numberText(s.camera.fov_degrees) +

@@ -91,9 +91,10 @@ void prepareOutputDirectory(const std::string& dir) {
   if (ec || !std::filesystem::is_directory(dir)) {
     // The OS's reason, and where it stopped: "No such file or directory" for a directory in /proc
     // reads as if /proc were missing.
-    std::filesystem::path existing = std::filesystem::absolute(dir).parent_path();
+    std::error_code ignored;
+    std::filesystem::path existing = std::filesystem::absolute(dir, ignored).parent_path();
     while (!existing.empty() && existing != existing.root_path() &&
-           !std::filesystem::exists(existing))
+           !std::filesystem::exists(existing, ignored))
       existing = existing.parent_path();
     throw InputError(dir + ": cannot create the output directory" +
                      (ec ? " (" + ec.message() + "; in " + existing.string() + ")"

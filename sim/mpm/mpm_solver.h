@@ -57,8 +57,14 @@ class MpmSolver final : public Solver<D> {
   const std::vector<T>& plasticJ() const { return particles_.J_P; }
   const std::vector<Mat<D, T>>& affine() const { return particles_.C; }
   LameOf<T> lame(int p) const { return lameOf(unhardened_lame_, particles_.hardening[p]); }
-  // rho_p^0, which the state does not keep: its mass over its initial volume.
-  T restDensity(int p) const { return particles_.mass[p] / particles_.volume[p]; }
+  // rho_p^0, which the state does not keep: on the lattice its body's density (what V_p^0 was made
+  // from), else its mass over its initial volume (which can round to the last bit differently
+  // from the density the volume was made from).
+  T restDensity(int p) const {
+    return params_.initial_volume == InitialVolume::Lattice
+               ? T(body_density_[particles_.body[p]])
+               : particles_.mass[p] / particles_.volume[p];
+  }
   const std::vector<Symmetric<D, T>>& stress() const { return particles_.tau; }
   // Auto-sleep: how many particle scatters this process's still blocks added, kept, instead of
   // scattering again (not checkpointed: counted from construction or resume).

@@ -562,17 +562,17 @@ SNOWSIM_LANES_INLINE void svdLanes(const Mat3Lanes<T>& F, Mat3Lanes<T>& U, Lanes
 }
 
 // The Kirchhoff stress of the lanes' F and rotation R with the Lamé parameters of particles ps
-// (the unhardened pair `unit` times each one's hardening), into lane l's tau[ps[l]] where store[l]
+// (the unhardened pair times each one's hardening), into lane l's tau[ps[l]] where store[l]
 // holds: as fixedCorotatedKirchhoffUpper.
 template <class T>
 SNOWSIM_LANES_INLINE void storeKirchhoffLanes(const Mat3Lanes<T>& F, const Mat3Lanes<T>& R,
-                                              std::span<const int> ps, const LameOf<T>& unit,
+                                              std::span<const int> ps, const LameOf<T>& unhardened,
                                               const T* hardening, const bool* store,
                                               Symmetric<3, T>* tau) {
   const int n = int(ps.size());
   Lanes<T> mu{}, lambda{};
   for (int l = 0; l < n; ++l) {
-    const LameOf<T> lame = lameOf(unit, hardening[ps[l]]);
+    const LameOf<T> lame = lameOf(unhardened, hardening[ps[l]]);
     mu[l] = lame.mu, lambda[l] = lame.lambda;
   }
   const auto& f = F.a;
@@ -636,7 +636,7 @@ template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int> ps, Mat<3, T>* F_E,
                                      T* J_P, Mat<3, T>* R_E, T* hardening, Symmetric<3, T>* tau,
                                      T lo, T hi) {
-  const LameOf<T> unit = unhardenedLame<T>(m);
+  const LameOf<T> unhardened = unhardenedLame<T>(m);
   int beyond[returnMappingBatch], beyond_at[returnMappingBatch];
   int count = 0;
   for (size_t first = 0; first < ps.size(); first += lanes) {
@@ -656,7 +656,7 @@ SNOWSIM_LANES_INLINE void mapInLanes(const SnowMaterial& m, std::span<const int>
         beyond_at[count++] = int(first) + l;
       }
     }
-    storeKirchhoffLanes(F, X, group, unit, hardening, stays, tau);
+    storeKirchhoffLanes(F, X, group, unhardened, hardening, stays, tau);
   }
   for (int first = 0; first < count; first += lanes)
     clampSingularValuesLanes(m,
@@ -703,7 +703,7 @@ template <class T>
 SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T* J_P, T* hardening,
                                       Symmetric<2, T>* tau, const SnowMaterial& m) {
   const int n = int(ps.size());
-  const LameOf<T> unit = unhardenedLame<T>(m);
+  const LameOf<T> unhardened = unhardenedLame<T>(m);
   Lanes<T> f[2][2];
   loadLanes<2, T>(F_E, ps, f);
   const Lanes<T> x = f[0][0] + f[1][1], y = f[1][0] - f[0][1];
@@ -743,7 +743,7 @@ SNOWSIM_LANES_INLINE void mapInLanes2(std::span<const int> ps, Mat<2, T>* F_E, T
     }
     // Hardening depends on J_P alone: no exp while it stays as it is (a NaN never does).
     if (J_P[p] != J_P_before[l]) hardening[p] = hardeningFactor<T>(m, J_P[p]);
-    const LameOf<T> lame = lameOf(unit, hardening[p]);
+    const LameOf<T> lame = lameOf(unhardened, hardening[p]);
     mu[l] = lame.mu;
     lambda[l] = lame.lambda;
   }

@@ -44,7 +44,7 @@ struct LameOf {
 };
 using Lame = LameOf<Real>;
 // The hardening factor h alone, which is what a particle keeps: 4 bytes in float where the pair
-// would take 8, and its Lamé pair from it (lameOf) is the same bits as hardenedLame's.
+// took 8, and the pair lameOf makes from it has the same bits as the pair kept before.
 template <class T = Real>
 T hardeningFactor(const SnowMaterial& m, std::type_identity_t<T> J_P);
 template <class T>

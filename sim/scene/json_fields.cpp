@@ -217,17 +217,20 @@ const Json* JsonFields::array(const std::string& key, bool required) {
 void JsonFields::finish() const {
   for (auto it = object_.begin(); it != object_.end(); ++it) {
     if (read_.count(it.key())) continue;
-    // A field the key begins (checkpoint_every for checkpoint_every_frames) before the nearest
+    // The fields the key begins (checkpoint_every: checkpoint_every_frames) before the nearest
     // spelling, which for a shortened name may be another field of the same prefix.
-    std::string best;
+    std::string begun, best;
     int best_distance = 1 << 30;
     for (const std::string& k : known_) {
-      const bool begins = it.key().size() >= 3 && k.rfind(it.key(), 0) == 0;
-      const int d = begins ? -1 : editDistance(it.key(), k);
+      if (it.key().size() >= 3 && k.rfind(it.key(), 0) == 0)
+        begun += (begun.empty() ? "\"" : " or \"") + k + "\"";
+      const int d = editDistance(it.key(), k);
       if (d < best_distance) best_distance = d, best = k;
     }
     std::string message = "unknown field";
-    if (!best.empty() && best_distance <= std::max<int>(2, best.size() / 2))
+    if (!begun.empty())
+      message += "; did you mean " + begun + "?";
+    else if (!best.empty() && best_distance <= std::max<int>(2, best.size() / 2))
       message += "; did you mean \"" + best + "\"?";
     else if (!known_.empty())
       message += "; allowed: " + joinNames(known_);

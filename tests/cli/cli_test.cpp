@@ -147,6 +147,15 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
                  "camera field of view (--fov, render.camera.fov) 0 is out of range");
   expectRejected("run " + scene("snowball_drop") + " --color-range 3,1",
                  "colour range (--color-range, render.color_range) [3, 1] is empty");
+  expectRejected("run " + scene("snowball_drop") + " --sphere-radius 20",
+                 "sphere radius (--sphere-radius, render.sphere_radius) 20 is out of range");
+  expectRejected("run " + scene("snowball_drop") + " --colour-by heat",
+                 "allowed: white, density, speed");
+  // The parser's own errors in snowsim's form.
+  expectRejected("run " + scene("snowball_drop") + " --no-such-option",
+                 "snowsim: error: The following argument was not expected: --no-such-option");
+  expectRejected("run " + scene("snowball_drop") + " --threads 0",
+                 "snowsim: error: --threads: \"0\" is not allowed");
   expectRejected("run " + scene("snowball_drop") + " --set render.look=noir", "render.look");
 }
 

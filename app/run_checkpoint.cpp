@@ -60,17 +60,24 @@ std::uint64_t sceneHash(const Scene& scene) {
 }
 
 void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation& simulation,
-                    nlohmann::json run_state) {
+                    nlohmann::json run_state, bool across_ranks) {
   run_state["scene"] = sceneToJson(scene);
   run_state["scene_file"] = scene.file;
-  Checkpoint checkpoint;
-  checkpoint.header.dimension = static_cast<std::uint32_t>(scene.dimension);
-  checkpoint.header.scalar_bytes = scalarBytes(scene);
-  checkpoint.header.scene_hash = sceneHash(scene);
-  checkpoint.header.snowsim_version = SNOWSIM_VERSION;
-  checkpoint.run_state = run_state.dump();
-  checkpoint.solver_state = simulation.saveState();
-  writeCheckpoint(checkpointPath(dir), checkpoint);
+  CheckpointHeader header;
+  header.dimension = static_cast<std::uint32_t>(scene.dimension);
+  header.scalar_bytes = scalarBytes(scene);
+  header.scene_hash = sceneHash(scene);
+  header.snowsim_version = SNOWSIM_VERSION;
+  if (!across_ranks) {
+    writeCheckpoint(checkpointPath(dir), header, run_state.dump(),
+                    [&](StateWriter& out) { simulation.saveState(out); });
+    return;
+  }
+  // The gather meets the other ranks once: its bytes are kept for the count and the write.
+  StateWriter gathered;
+  simulation.saveState(gathered);
+  writeCheckpoint(checkpointPath(dir), header, run_state.dump(),
+                  [&](StateWriter& out) { out.append(gathered.bytes()); });
 }
 
 SavedRun loadCheckpoint(const std::string& dir) {

@@ -48,9 +48,10 @@ std::uint64_t sceneHash(const Scene& scene);
 
 // Writes DIR's checkpoint: the simulation's state and the run layer's `run_state`, to which the
 // resolved scene is added. InputError naming the file when it cannot be written; the earlier
-// checkpoint is then intact.
+// checkpoint is then intact. across_ranks: the state gathers every MPI rank's (each rank saves
+// its state once, at the same time), which is kept in memory; else it streams to the file.
 void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation& simulation,
-                    nlohmann::json run_state);
+                    nlohmann::json run_state, bool across_ranks);
 
 struct SavedRun {
   std::string file;  // the checkpoint read

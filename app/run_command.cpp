@@ -308,7 +308,7 @@ Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
 // alike: set false once an error could be one rank's alone; until then an InputError is met by
 // every rank at the same point (the scene, the settings, the output directory's agreed refusal,
 // the solver's set-up, the agreed removal of an earlier run).
-void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
+void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
   // stderr goes nowhere (an error they meet, rank 0 meets too).
   RankExchange& world = worldExchange();
@@ -396,7 +396,10 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
     const StageClock::Scope time(&clock, "setup");
     alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
     fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
-    if (saved) simulation->loadState(saved->solver_state, saved->file);
+    if (saved) {
+      simulation->loadState(saved->solver_state, saved->file);
+      std::string().swap(saved->solver_state);  // as large as the state: not kept for the run
+    }
     if (options.ply && writes)
       sinks.push_back(
           std::make_unique<FileSink>(options.out, "ply", writePly, up, "write PLY", clock));
@@ -454,10 +457,12 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
                                              stageTimes(*simulation, clock, earlier.stages)}
                                     .toJson();
     recordRendering(state, render, scene);
-    if (writes)
-      saveCheckpoint(options.out, scene, *simulation, state);
-    else
-      simulation->saveState();  // this rank's share, which rank 0 gathers
+    if (writes) {
+      saveCheckpoint(options.out, scene, *simulation, state, world.ranks() > 1);
+    } else {
+      StateWriter rank_share([](const char*, std::size_t) {});  // which rank 0 gathers
+      simulation->saveState(rank_share);
+    }
   };
   // A signal stops the run at the end of the current step: the frame it interrupts is not
   // written, every earlier one is complete. Every rank stops at the same step, whichever got it.
@@ -567,7 +572,7 @@ void run(const RunOptions& options, const SavedRun* saved, bool& alike) {
 // rank meets alike ends each normally, rank 0 with its message and exit code, which mpirun
 // returns, the others quietly: MPI_Abort could end the launcher before it forwards the message.
 // A signal needs none of this, as every rank stops at the same step.
-void runOnEveryRank(const RunOptions& options, const SavedRun* saved = nullptr) {
+void runOnEveryRank(const RunOptions& options, SavedRun* saved = nullptr) {
   bool alike = true;
   try {
     run(options, saved, alike);
@@ -640,7 +645,7 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
 void resume(const std::string& dir, int threads, bool drop_video) {
   // Before its checkpoint, which a running run rewrites; by rank 0 alone, which takes the lock.
   if (launchedAsRankZero()) RunDirectoryLock::refuseIfHeld(dir);
-  const SavedRun saved = loadCheckpoint(dir);
+  SavedRun saved = loadCheckpoint(dir);
   RunOptions options;
   CLI::App parser;
   addRunOptions(parser.add_subcommand("run"), &options, false);

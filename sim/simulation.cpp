@@ -66,11 +66,7 @@ class SimulationOf final : public Simulation {
     stages.push_back({stages.empty() ? "step" : "rest of the step", std::max(0.0, rest)});
     return stages;
   }
-  std::string saveState() const override {
-    StateWriter out;
-    solver_->saveState(out);
-    return out.bytes();
-  }
+  void saveState(StateWriter& out) const override { solver_->saveState(out); }
   void loadState(std::string_view bytes, const std::string& file) override {
     StateReader in(bytes, file);
     solver_->loadState(in);

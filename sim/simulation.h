@@ -46,7 +46,7 @@ class Simulation {
   // The solver's whole state as bytes (sim/io/checkpoint.h), and back into a simulation made from
   // the same scene: it then steps on exactly as the saved one would have. loadState throws
   // InputError naming `file` when the bytes do not fit this simulation.
-  virtual std::string saveState() const = 0;
+  virtual void saveState(StateWriter& out) const = 0;
   virtual void loadState(std::string_view bytes, const std::string& file) = 0;
 };
 

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace snowsim {
 
@@ -89,20 +90,72 @@ void StateReader::fail(const std::string& problem) const {
   throw InputError(file_ + ": not a checkpoint of this run's state (" + problem + ")");
 }
 
-std::string encodeCheckpoint(const Checkpoint& c) {
+namespace {
+
+// Everything before the solver state's bytes, their length last.
+std::string checkpointHead(const CheckpointHeader& header, std::string_view run_state,
+                           std::uint64_t solver_state_bytes) {
   std::string out(kMagic);
   put(out, kCheckpointFormat);
-  put(out, c.header.dimension);
-  put(out, c.header.scalar_bytes);
-  put(out, c.header.scene_hash);
-  putText<std::uint32_t>(out, c.header.snowsim_version);
-  putText<std::uint32_t>(out, c.run_state);
-  putText<std::uint64_t>(out, c.solver_state);
+  put(out, header.dimension);
+  put(out, header.scalar_bytes);
+  put(out, header.scene_hash);
+  putText<std::uint32_t>(out, header.snowsim_version);
+  putText<std::uint32_t>(out, run_state);
+  put(out, solver_state_bytes);
+  return out;
+}
+
+// A file written through a buffer, its CRC-32 kept as it goes; the first error is kept and
+// written bytes are dropped after it.
+class ChecksummedFile {
+ public:
+  explicit ChecksummedFile(int fd) : fd_(fd) { buffer_.reserve(kBuffer); }
+  void write(const char* bytes, std::size_t size) {
+    crc_ = crc32(std::string_view(bytes, size), crc_);
+    if (buffer_.size() + size > kBuffer) flush();
+    if (size >= kBuffer)
+      writeOut(bytes, size);
+    else
+      buffer_.append(bytes, size);
+  }
+  void flush() {
+    writeOut(buffer_.data(), buffer_.size());
+    buffer_.clear();
+  }
+  std::uint32_t crc() const { return crc_; }
+  int error() const { return error_; }
+
+ private:
+  static constexpr std::size_t kBuffer = std::size_t(1) << 20;
+  void writeOut(const char* data, std::size_t left) {
+    while (left > 0 && error_ == 0) {
+      const ssize_t written = ::write(fd_, data, left);
+      if (written < 0 && errno != EINTR) error_ = errno;
+      if (written > 0) data += written, left -= static_cast<std::size_t>(written);
+    }
+  }
+
+  int fd_;
+  std::string buffer_;
+  std::uint32_t crc_ = 0;
+  int error_ = 0;
+};
+
+}  // namespace
+
+std::string encodeCheckpoint(const Checkpoint& c) {
+  std::string out = checkpointHead(c.header, c.run_state, c.solver_state.size());
+  out += c.solver_state;
   put(out, crc32(out));
   return out;
 }
 
-Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
+namespace {
+
+// Checks the checkpoint in bytes and reads all of it into c but the solver state, whose place in
+// bytes it returns: readCheckpoint takes it from the file's bytes without a copy.
+std::string_view decodeAllButState(std::string_view bytes, const std::string& file, Checkpoint& c) {
   const auto bad = [&](const std::string& problem) {
     return InputError(file + ": " + problem + "; resume needs an intact checkpoint");
   };
@@ -126,14 +179,14 @@ Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
   std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
   if (crc32(bytes.substr(0, bytes.size() - 4)) != stored_crc)
     throw damaged("truncated or corrupted (its CRC-32 does not match its contents)");
-  Checkpoint c;
+  std::string_view solver_state;
   try {
     in.value(c.header.dimension);
     in.value(c.header.scalar_bytes);
     in.value(c.header.scene_hash);
     c.header.snowsim_version = in.text<std::uint32_t>();
     c.run_state = in.text<std::uint32_t>();
-    c.solver_state = in.text<std::uint64_t>();
+    solver_state = in.textView<std::uint64_t>();
     in.value<std::uint32_t>();  // the CRC, checked above
     in.finish();
   } catch (const InputError& e) {
@@ -143,23 +196,44 @@ Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
     throw bad("dimension " + std::to_string(c.header.dimension) + "; allowed: 2, 3");
   if (c.header.scalar_bytes != 4 && c.header.scalar_bytes != 8)
     throw bad(std::to_string(c.header.scalar_bytes) + "-byte scalars; allowed: 4, 8");
+  return solver_state;
+}
+
+}  // namespace
+
+Checkpoint decodeCheckpoint(std::string_view bytes, const std::string& file) {
+  Checkpoint c;
+  c.solver_state = std::string(decodeAllButState(bytes, file, c));
   return c;
 }
 
-void writeCheckpoint(const std::string& path, const Checkpoint& checkpoint) {
-  const std::string bytes = encodeCheckpoint(checkpoint);
+void writeCheckpoint(const std::string& path, const CheckpointHeader& header,
+                     const std::string& run_state, const std::function<void(StateWriter&)>& save) {
+  std::uint64_t solver_state_bytes = 0;
+  StateWriter count([&](const char*, std::size_t size) { solver_state_bytes += size; });
+  save(count);
   const std::string temporary = path + ".tmp";
   const UnfinishedFile unfinished(temporary);
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) failWrite(temporary, errno, "");
-  const char* data = bytes.data();
-  std::size_t left = bytes.size();
-  int error = 0;
-  while (left > 0 && error == 0) {
-    const ssize_t written = ::write(fd, data, left);
-    if (written < 0 && errno != EINTR) error = errno;
-    if (written > 0) data += written, left -= static_cast<std::size_t>(written);
+  ChecksummedFile file(fd);
+  const std::string head = checkpointHead(header, run_state, solver_state_bytes);
+  file.write(head.data(), head.size());
+  std::uint64_t written = 0;
+  StateWriter out([&](const char* bytes, std::size_t size) {
+    file.write(bytes, size);
+    written += size;
+  });
+  save(out);
+  if (written != solver_state_bytes) {
+    ::close(fd);
+    ::unlink(temporary.c_str());
+    throw std::logic_error("the solver's state changed its length between its count and its write");
   }
+  const std::uint32_t crc = file.crc();
+  file.write(reinterpret_cast<const char*>(&crc), sizeof crc);
+  file.flush();
+  int error = file.error();
   if (error == 0 && ::fsync(fd) != 0) error = errno;
   if (::close(fd) != 0 && error == 0) error = errno;
   if (error != 0) failWrite(temporary, error, temporary);
@@ -175,10 +249,23 @@ void writeCheckpoint(const std::string& path, const Checkpoint& checkpoint) {
 Checkpoint readCheckpoint(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot read the checkpoint (" + std::strerror(errno) + ")");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read the checkpoint");
-  return decodeCheckpoint(bytes.str(), path);
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error))
+    throw InputError(path + ": cannot read the checkpoint (not a file)");
+  // Read once into one buffer, which then holds the solver state alone: a checkpoint of millions
+  // of particles is not copied.
+  std::string bytes(std::filesystem::file_size(path, error), '\0');
+  if (error) throw InputError(path + ": cannot read the checkpoint (" + error.message() + ")");
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!in) throw InputError(path + ": cannot read the checkpoint");
+  Checkpoint c;
+  const std::string_view state = decodeAllButState(bytes, path, c);
+  const std::size_t at = static_cast<std::size_t>(state.data() - bytes.data());
+  const std::size_t size = state.size();
+  bytes.resize(at + size);
+  bytes.erase(0, at);
+  c.solver_state = std::move(bytes);
+  return c;
 }
 
 }  // namespace snowsim

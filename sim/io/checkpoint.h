@@ -10,9 +10,11 @@
 
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "sim/core/errors.h"
@@ -33,23 +35,41 @@ template <class T>
 inline constexpr bool kPlainBytes =
     std::is_trivially_destructible_v<T>&& std::is_standard_layout_v<T>;
 
+// Where a StateWriter passes its bytes on as they come (a file, a count).
+using ByteSink = std::function<void(const char* bytes, std::size_t size)>;
+
 // A solver's state as bytes: scalars and arrays of plain values, in the order a StateReader reads
-// them back.
+// them back. It keeps them (bytes()), or passes them on to a sink without holding them: a
+// checkpoint of millions of particles then costs no copy of their arrays.
 class StateWriter {
  public:
+  StateWriter() = default;
+  explicit StateWriter(ByteSink sink) : sink_(std::move(sink)) {}
+
   template <class T>
   void value(const T& v) {
     static_assert(kPlainBytes<T>);
-    bytes_.append(reinterpret_cast<const char*>(&v), sizeof v);
+    put(reinterpret_cast<const char*>(&v), sizeof v);
   }
   template <class T, class A>
   void array(const std::vector<T, A>& a) {
     value(static_cast<std::uint64_t>(a.size()));
-    bytes_.append(reinterpret_cast<const char*>(a.data()), a.size() * sizeof(T));
+    if (!a.empty()) put(reinterpret_cast<const char*>(a.data()), a.size() * sizeof(T));
   }
+  // Bytes another StateWriter kept, as they are.
+  void append(std::string_view kept) { put(kept.data(), kept.size()); }
+  // What it kept (nothing with a sink).
   const std::string& bytes() const { return bytes_; }
 
  private:
+  void put(const char* bytes, std::size_t size) {
+    if (sink_)
+      sink_(bytes, size);
+    else
+      bytes_.append(bytes, size);
+  }
+
+  ByteSink sink_;
   std::string bytes_;
 };
 
@@ -81,12 +101,16 @@ class StateReader {
     const char* bytes = take(n * sizeof(T));
     if (n > 0) std::memcpy(static_cast<void*>(a.data()), bytes, n * sizeof(T));  // empty: null
   }
-  // A text of `Length` bytes' length.
+  // A text of `Length` bytes' length; textView: a view of it in the bytes read.
   template <class Length>
   std::string text() {
+    return std::string(textView<Length>());
+  }
+  template <class Length>
+  std::string_view textView() {
     const auto n = value<Length>();
     if (n > bytes_.size() - at_) fail("a text of " + std::to_string(n) + " bytes does not fit");
-    return std::string(take(n), n);
+    return std::string_view(take(n), n);
   }
   // Throws unless every byte was read.
   void finish() const;
@@ -141,11 +165,14 @@ struct DamagedCheckpoint : InputError {
   using InputError::InputError;
 };
 
-// Writes the checkpoint to path.tmp and syncs it, links the earlier checkpoint at path as
-// path.prev, renames path.tmp over path and syncs the directory: a crash at any moment leaves a
-// complete checkpoint at path (once there was one). Throws InputError naming the file when a
-// write fails; path.tmp is then removed and the earlier checkpoint left as it was.
-void writeCheckpoint(const std::string& path, const Checkpoint& checkpoint);
+// Writes the checkpoint of `header` and `run_state` whose solver state save(out) writes, without
+// holding that state's bytes: save runs twice, first to count them (their length comes before
+// them), then into the file. It goes to path.tmp, which is synced; the earlier checkpoint at path
+// is linked as path.prev, path.tmp renamed over path and the directory synced: a crash at any
+// moment leaves a complete checkpoint at path (once there was one). Throws InputError naming the
+// file when a write fails; path.tmp is then removed and the earlier checkpoint left as it was.
+void writeCheckpoint(const std::string& path, const CheckpointHeader& header,
+                     const std::string& run_state, const std::function<void(StateWriter&)>& save);
 // Reads and decodes path; InputError naming it when it is missing, unreadable or damaged.
 Checkpoint readCheckpoint(const std::string& path);
 

@@ -841,7 +841,10 @@ void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
   saveRankState(mine);
   const std::vector<std::string> ranks = slabs_.allGather(mine.bytes());
   out.value(static_cast<std::uint32_t>(ranks.size()));
-  for (const std::string& bytes : ranks) out.array(std::vector<char>(bytes.begin(), bytes.end()));
+  for (const std::string& bytes : ranks) {  // as an array of chars, without copying it into one
+    out.value(static_cast<std::uint64_t>(bytes.size()));
+    out.append(bytes);
+  }
 }
 
 template <int D, class T>

@@ -109,6 +109,54 @@ std::string commandLine(const std::vector<std::string>& args) {
 // Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
 // frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
 // uninterrupted run's. Each kill leaves a later checkpoint than the one before it.
+// A checkpoint streamed to its file, its solver state counted first and never held whole, has
+// the bytes of the same checkpoint encoded at once; the one before stays as .prev. A state that
+// changes its length between the count and the write is an internal error that leaves the
+// checkpoint as it was.
+TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
+  const fs::path dir = freshDir("streamed");
+  fs::create_directories(dir);
+  const std::string path = (dir / "checkpoint.snowsim").string();
+  snowsim::CheckpointHeader header;
+  header.dimension = 3;
+  header.scalar_bytes = 4;
+  header.scene_hash = 0x1234;
+  header.snowsim_version = "test";
+  std::vector<double> large(300000);  // 2.4 MB: past the file's buffer
+  for (size_t i = 0; i < large.size(); ++i) large[i] = 0.5 * double(i);
+  int saves = 0;
+  const auto save = [&](snowsim::StateWriter& out) {
+    ++saves;
+    out.value(std::uint32_t{7});
+    out.array(large);
+    out.array(std::vector<int>{});
+    out.value(2.5f);
+  };
+  snowsim::StateWriter kept;
+  save(kept);
+  const std::string expected = snowsim::encodeCheckpoint({header, "{\"run\": 1}", kept.bytes()});
+  saves = 0;
+  snowsim::writeCheckpoint(path, header, "{\"run\": 1}", save);
+  EXPECT_EQ(saves, 2);
+  ASSERT_EQ(bytesOf(path), expected);
+  EXPECT_EQ(snowsim::decodeCheckpoint(expected, path).solver_state, kept.bytes());
+
+  large[0] = 1;
+  snowsim::writeCheckpoint(path, header, "{\"run\": 2}", save);
+  EXPECT_EQ(bytesOf(path + ".prev"), expected);
+  const std::string second = bytesOf(path);
+  EXPECT_NE(second, expected);
+
+  bool longer = false;
+  const auto unsteady = [&](snowsim::StateWriter& out) {
+    out.array(std::vector<int>(longer ? 3 : 2));
+    longer = true;
+  };
+  EXPECT_THROW(snowsim::writeCheckpoint(path, header, "{}", unsteady), std::logic_error);
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_EQ(bytesOf(path), second);
+}
+
 TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
   for (const Case& c : kCases) {
     const fs::path whole = freshDir("whole_" + c.name);

@@ -6,8 +6,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config clang-format
-  # sim/: linear algebra (OpenMP comes with g++)
-  libeigen3-dev
+  # sim/: linear algebra (OpenMP comes with g++); zlib's CRC-32 for the checkpoints
+  libeigen3-dev zlib1g-dev
   # meshes and volumes: assimp reads OBJ, STL and PLY meshes (sim/geometry/); OpenVDB turns a
   # mesh into a signed distance field and writes the --vdb volumes (its headers need Boost's)
   libassimp-dev libopenvdb-dev libboost-dev

@@ -4,8 +4,9 @@
 
 #include <fcntl.h>
 #include <unistd.h>
+#include <zlib.h>
 
-#include <array>
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cstring>
@@ -23,16 +24,6 @@ static_assert(std::endian::native == std::endian::little,
 namespace {
 
 constexpr std::string_view kMagic = "SNOWCKPT";
-
-std::array<std::uint32_t, 256> crcTable() {
-  std::array<std::uint32_t, 256> table{};
-  for (std::uint32_t n = 0; n < 256; ++n) {
-    std::uint32_t c = n;
-    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-    table[n] = c;
-  }
-  return table;
-}
 
 // Appends the bytes of a value; a length-prefixed text.
 template <class T>
@@ -62,10 +53,14 @@ void syncDirectory(const std::string& path) {
 }  // namespace
 
 std::uint32_t crc32(std::string_view bytes, std::uint32_t crc) {
-  static const std::array<std::uint32_t, 256> table = crcTable();
-  crc = ~crc;
-  for (const char b : bytes) crc = table[(crc ^ static_cast<unsigned char>(b)) & 0xFF] ^ (crc >> 8);
-  return ~crc;
+  // zlib takes at most a uInt (32 bits) of bytes at a time.
+  constexpr std::size_t most = std::size_t(1) << 30;
+  for (std::size_t at = 0; at < bytes.size(); at += most) {
+    const std::size_t size = std::min(most, bytes.size() - at);
+    crc = static_cast<std::uint32_t>(
+        ::crc32(crc, reinterpret_cast<const Bytef*>(bytes.data() + at), static_cast<uInt>(size)));
+  }
+  return crc;
 }
 
 std::uint64_t fnv1a(std::string_view bytes) {

@@ -219,10 +219,18 @@ void writeCheckpoint(const std::string& path, const CheckpointHeader& header,
     file.write(bytes, size);
     written += size;
   });
-  save(out);
-  if (written != solver_state_bytes) {
+  const auto abandon = [&] {  // the earlier checkpoint stays as it is
     ::close(fd);
     ::unlink(temporary.c_str());
+  };
+  try {
+    save(out);
+  } catch (...) {
+    abandon();
+    throw;
+  }
+  if (written != solver_state_bytes) {
+    abandon();
     throw std::logic_error("the solver's state changed its length between its count and its write");
   }
   const std::uint32_t crc = file.crc();

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <new>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -153,6 +154,15 @@ TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
     longer = true;
   };
   EXPECT_THROW(snowsim::writeCheckpoint(path, header, "{}", unsteady), std::logic_error);
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_EQ(bytesOf(path), second);
+  // A save that fails while writing (out of memory, say) leaves nothing behind either.
+  int calls = 0;
+  const auto failing = [&](snowsim::StateWriter& out) {
+    out.array(large);
+    if (++calls == 2) throw std::bad_alloc();
+  };
+  EXPECT_THROW(snowsim::writeCheckpoint(path, header, "{}", failing), std::bad_alloc);
   EXPECT_FALSE(fs::exists(path + ".tmp"));
   EXPECT_EQ(bytesOf(path), second);
 }

@@ -114,8 +114,11 @@ std::string JsonFields::fieldPath(const std::string& key) const {
   return path_.empty() ? key : path_ + "." + key;
 }
 
-void JsonFields::fail(const std::string& key, const std::string& message) const {
-  throw FieldError(file_, fieldPath(key), message);
+void JsonFields::fail(const std::string& key, const std::string& message,
+                      const std::vector<std::string>& also) const {
+  FieldError error(file_, fieldPath(key), message);
+  for (const std::string& other : also) error.also.push_back(dottedPath(fieldPath(other)));
+  throw error;
 }
 
 const Json* JsonFields::lookup(const std::string& key, bool required) {

@@ -44,6 +44,7 @@ struct FieldError : InputError {
   FieldError(const std::string& file, const std::string& shown_path, const std::string& problem);
   std::string field;    // dotted: bodies.0.radius
   std::string problem;  // what() without the file: "bodies[0].radius: must be positive; ..."
+  std::vector<std::string> also;  // dotted: other fields the problem is of (center and radius)
 };
 
 // The dotted form of a field path: "bodies[0].radius" gives "bodies.0.radius".
@@ -94,7 +95,9 @@ class JsonFields {
   // Throws if the object has a key none of the readers asked for.
   void finish() const;
 
-  [[noreturn]] void fail(const std::string& key, const std::string& message) const;
+  // The problem is named at `key`; an override of one of the `also` keys is blamed as well.
+  [[noreturn]] void fail(const std::string& key, const std::string& message,
+                         const std::vector<std::string>& also = {}) const;
 
  private:
   const Json* lookup(const std::string& key, bool required);

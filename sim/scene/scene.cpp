@@ -469,7 +469,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
         << ") reaches outside the grid along axis "
         << "xyz"[a] << " ([" << b.center[a] - half << ", " << b.center[a] + half
         << "] m; the grid spans [0, " << extent[a] << "] m)";
-      f.fail("center", s.str());
+      f.fail("center", s.str(), {b.shape == BodyShape::Box ? "size" : "radius"});
     }
   }
   return b;
@@ -636,9 +636,13 @@ Scene loadScene(Json root, const std::string& path, const std::vector<std::strin
     return parseScene(root, path);
   } catch (const FieldError& e) {
     // A field an override wrote: blame the last assignment to it, not the file.
-    for (auto o = overrides.rbegin(); o != overrides.rend(); ++o)
-      if (overlaps(splitAssignment(*o).path, e.field))
-        throw InputError("--set " + *o + " on " + path + ": " + e.problem);
+    for (auto o = overrides.rbegin(); o != overrides.rend(); ++o) {
+      const std::string set = splitAssignment(*o).path;
+      const bool blamed = overlaps(set, e.field) ||
+                          std::any_of(e.also.begin(), e.also.end(),
+                                      [&](const std::string& f) { return overlaps(set, f); });
+      if (blamed) throw InputError("--set " + *o + " on " + path + ": " + e.problem);
+    }
     throw;
   }
 }

@@ -118,6 +118,8 @@ TEST(Cli, BadInputExitsTwoWithAClearMessageAndWritesNothing) {
   expectRejected("run " + scene("snowball_drop") + " --set grid.cells=[0,12]", "grid.cells");
   expectRejected("run " + scene("snowball_drop") + " --set bodies.0.center=[0.5,0.05]",
                  "outside the grid");
+  expectRejected("run " + scene("snowball_drop") + " --set bodies.0.radius=0.5",
+                 "--set bodies.0.radius=0.5 on");
   expectRejected("run " + scene("mpm_snowball_wall") + " --set grid.cells=[32,20]",
                  "grid.cells: has 2 entries, which makes the scene 2D");
   expectRejected("run " + scene("snowball_drop") + " --set time.dt", "expected key=value");

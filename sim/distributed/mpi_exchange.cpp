@@ -67,6 +67,24 @@ class MpiWorld final : public RankExchange {
     return from;
   }
 
+  std::vector<std::string> gatherToFirst(std::string_view mine) override {
+    std::vector<int> counts(rank_ == 0 ? ranks_ : 0);
+    const int count = byteCount(mine.size());
+    MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (rank_ != 0) {
+      MPI_Gatherv(mine.data(), count, MPI_BYTE, nullptr, nullptr, nullptr, MPI_BYTE, 0,
+                  MPI_COMM_WORLD);
+      return {};
+    }
+    const std::vector<int> at = displacements(counts);
+    std::string all(byteCount(size_t(at.back()) + counts.back()), '\0');
+    MPI_Gatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), at.data(), MPI_BYTE, 0,
+                MPI_COMM_WORLD);
+    std::vector<std::string> from(ranks_);
+    for (int r = 0; r < ranks_; ++r) from[r] = all.substr(at[r], counts[r]);
+    return from;
+  }
+
   [[noreturn]] void abortAll(int exit_code) override {
     // The launcher forwards each rank's output from a pipe; MPI_Abort tears the job down at once
     // and could drop the error message just written (2 runs in 40 under load, none after a pause).

@@ -21,6 +21,9 @@ class RankExchange {
   virtual int ranks() const = 0;
   // Every rank calls it with its bytes; each gets all ranks' bytes, in rank order.
   virtual std::vector<std::string> allGather(std::string_view mine) = 0;
+  // The same, but rank 0 alone gets them (the others an empty vector): for what rank 0 alone
+  // writes, which the others need not hold.
+  virtual std::vector<std::string> gatherToFirst(std::string_view mine) = 0;
   // Every rank calls it with to[r], the bytes for rank r; returns from[r], what rank r sent this
   // one.
   virtual std::vector<std::string> allToAll(const std::vector<std::string>& to) = 0;
@@ -47,6 +50,9 @@ class SingleProcess final : public RankExchange {
   int rank() const override { return 0; }
   int ranks() const override { return 1; }
   std::vector<std::string> allGather(std::string_view mine) override { return {std::string(mine)}; }
+  std::vector<std::string> gatherToFirst(std::string_view mine) override {
+    return {std::string(mine)};
+  }
   std::vector<std::string> allToAll(const std::vector<std::string>& to) override { return to; }
   [[noreturn]] void abortAll(int exit_code) override { std::exit(exit_code); }
 };

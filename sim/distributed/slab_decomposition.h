@@ -51,7 +51,10 @@ class SlabDecomposition {
   // The first cell layer of each slab after the first, ascending.
   const std::vector<int>& cuts() const { return cuts_; }
   const RankTraffic& traffic() const { return traffic_; }
-  std::vector<std::string> allGather(std::string_view mine) const { return world_.allGather(mine); }
+  // Every rank's bytes, in rank order, on rank 0 (empty on the others).
+  std::vector<std::string> gatherToFirst(std::string_view mine) const {
+    return world_.gatherToFirst(mine);
+  }
   // Every rank's traffic, in rank order, on every rank.
   std::vector<RankTraffic> everyRanksTraffic() const { return gatherEach(traffic_); }
 

@@ -835,11 +835,11 @@ const Particles<D>& MpmSolver<D, T>::particles() const {
 template <int D, class T>
 void MpmSolver<D, T>::saveSolverState(StateWriter& out) const {
   if (!slabs_.distributed()) return saveRankState(out);
-  // Each rank's state in rank order (rank 0 writes the file): a resume under as many ranks takes
-  // the very steps the run would have.
+  // Each rank's state in rank order, on rank 0, which writes the file (the others' writers discard
+  // what they are given): a resume under as many ranks takes the very steps the run would have.
   StateWriter mine;
   saveRankState(mine);
-  const std::vector<std::string> ranks = slabs_.allGather(mine.bytes());
+  const std::vector<std::string> ranks = slabs_.gatherToFirst(mine.bytes());
   out.value(static_cast<std::uint32_t>(ranks.size()));
   for (const std::string& bytes : ranks) {  // as an array of chars, without copying it into one
     out.value(static_cast<std::uint64_t>(bytes.size()));

@@ -180,14 +180,15 @@ class SlabDecomposition {
     return values;
   }
 
-  // Every rank's particles, in the order of their ids (the order of creation), on every rank.
+  // Every rank's particles, in the order of their ids (the order of creation), on rank 0, which
+  // alone writes the frames; none on the others.
   template <class P>
   void gatherById(const P& mine, P& all) {
     std::vector<int> every(mine.size());
     for (int p = 0; p < mine.size(); ++p) every[p] = p;
     all = P();
     // forEachArray hands out the arrays to change them; pack only reads them.
-    for (const std::string& bytes : world_.allGather(pack(const_cast<P&>(mine), every)))
+    for (const std::string& bytes : world_.gatherToFirst(pack(const_cast<P&>(mine), every)))
       unpack(bytes, all);
     const std::vector<int> id = all.id;
     all.forEachArray([&](auto& array) {

@@ -395,7 +395,9 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   {
     const StageClock::Scope time(&clock, "setup");
     alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
-    fitToScene(render, scene, simulation->snapshot(0));  // from the initial state, resumed or not
+    // From the initial state, resumed or not. Every rank takes part in the snapshot's gather;
+    // only rank 0, which draws, gets the particles.
+    fitToScene(render, scene, simulation->snapshot(0));
     if (saved) {
       simulation->loadState(saved->solver_state, saved->file);
       std::string().swap(saved->solver_state);  // as large as the state: not kept for the run

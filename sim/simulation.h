@@ -25,6 +25,7 @@ class Simulation {
   // SimulationError when the state stops being finite.
   virtual bool advanceTo(double t, const std::function<bool()>& stop_requested = {}) = 0;
 
+  // Across MPI ranks each rank calls it at once, and rank 0 alone gets the particles.
   virtual Snapshot snapshot(int frame) const = 0;
   virtual double time() const = 0;
   virtual long steps() const = 0;

@@ -113,6 +113,8 @@ class Solver {
   double stepSeconds() const { return step_seconds_; }
   virtual std::vector<StageSeconds> stageSeconds() const { return {}; }
 
+  // Across MPI ranks every rank's particles on rank 0 and none on the others (each rank calls it
+  // at once); particleCount() is every rank's count on each.
   virtual const Particles<D>& particles() const = 0;
   virtual int particleCount() const { return particles().size(); }  // across MPI ranks: all
   // The particles' positions, velocities, masses and radii into a snapshot, in creation order. A

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <numeric>
 #include <thread>
 
 #include "sim/core/errors.h"
@@ -29,16 +28,22 @@ void finalise() {
   if (!finalised) MPI_Finalize();
 }
 
-std::vector<int> displacements(const std::vector<int>& counts) {
-  std::vector<int> at(counts.size(), 0);
-  std::partial_sum(counts.begin(), counts.end() - 1, at.begin() + 1);
-  return at;
-}
-
 int byteCount(size_t bytes) {
   if (bytes > static_cast<size_t>(std::numeric_limits<int>::max()))
     throw SimulationError("a message between MPI ranks exceeds 2 GiB");
   return static_cast<int>(bytes);
+}
+
+// Where each rank's bytes start in the whole; the sums in 64 bits, so that a whole past 2 GiB is
+// refused (byteCount) rather than overflowing.
+std::vector<int> displacements(const std::vector<int>& counts) {
+  std::vector<int> at(counts.size(), 0);
+  size_t sum = 0;
+  for (size_t r = 0; r + 1 < counts.size(); ++r) {
+    sum += static_cast<size_t>(counts[r]);
+    at[r + 1] = byteCount(sum);
+  }
+  return at;
 }
 
 class MpiWorld final : public RankExchange {

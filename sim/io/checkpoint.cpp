@@ -207,36 +207,33 @@ void writeCheckpoint(const std::string& path, const CheckpointHeader& header,
   std::uint64_t solver_state_bytes = 0;
   StateWriter count([&](const char*, std::size_t size) { solver_state_bytes += size; });
   save(count);
+  const std::string head = checkpointHead(header, run_state, solver_state_bytes);
   const std::string temporary = path + ".tmp";
   const UnfinishedFile unfinished(temporary);
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) failWrite(temporary, errno, "");
-  ChecksummedFile file(fd);
-  const std::string head = checkpointHead(header, run_state, solver_state_bytes);
-  file.write(head.data(), head.size());
-  std::uint64_t written = 0;
-  StateWriter out([&](const char* bytes, std::size_t size) {
-    file.write(bytes, size);
-    written += size;
-  });
-  const auto abandon = [&] {  // the earlier checkpoint stays as it is
+  int error = 0;
+  try {  // whatever fails from here on, the earlier checkpoint stays as it is
+    ChecksummedFile file(fd);
+    file.write(head.data(), head.size());
+    std::uint64_t written = 0;
+    StateWriter out([&](const char* bytes, std::size_t size) {
+      file.write(bytes, size);
+      written += size;
+    });
+    save(out);
+    if (written != solver_state_bytes)
+      throw std::logic_error(
+          "the solver's state changed its length between its count and its write");
+    const std::uint32_t crc = file.crc();
+    file.write(reinterpret_cast<const char*>(&crc), sizeof crc);
+    file.flush();
+    error = file.error();
+  } catch (...) {
     ::close(fd);
     ::unlink(temporary.c_str());
-  };
-  try {
-    save(out);
-  } catch (...) {
-    abandon();
     throw;
   }
-  if (written != solver_state_bytes) {
-    abandon();
-    throw std::logic_error("the solver's state changed its length between its count and its write");
-  }
-  const std::uint32_t crc = file.crc();
-  file.write(reinterpret_cast<const char*>(&crc), sizeof crc);
-  file.flush();
-  int error = file.error();
   if (error == 0 && ::fsync(fd) != 0) error = errno;
   if (::close(fd) != 0 && error == 0) error = errno;
   if (error != 0) failWrite(temporary, error, temporary);
@@ -255,10 +252,11 @@ Checkpoint readCheckpoint(const std::string& path) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw InputError(path + ": cannot read the checkpoint (not a file)");
+  const std::uintmax_t length = std::filesystem::file_size(path, error);
+  if (error) throw InputError(path + ": cannot read the checkpoint (" + error.message() + ")");
   // Read once into one buffer, which then holds the solver state alone: a checkpoint of millions
   // of particles is not copied.
-  std::string bytes(std::filesystem::file_size(path, error), '\0');
-  if (error) throw InputError(path + ": cannot read the checkpoint (" + error.message() + ")");
+  std::string bytes(length, '\0');
   in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   if (!in) throw InputError(path + ": cannot read the checkpoint");
   Checkpoint c;

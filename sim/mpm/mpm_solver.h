@@ -122,8 +122,8 @@ class MpmSolver final : public Solver<D> {
   // What this rank holds; under MPI the checkpoint holds each rank's in turn.
   void saveRankState(StateWriter& out) const;
   void loadRankState(StateReader& in);
-  // Every rank's particles in the order of their ids, once per step that asks (this rank's alone
-  // when not distributed): what the output sees.
+  // Every rank's particles in the order of their ids on rank 0, once per step that asks, none on
+  // the other ranks (this process's when not distributed): what the output sees.
   const MpmParticles<D, T>& outputParticles() const;
   template <class Transfer, class Kernel>
   void stepWith(T dt);

@@ -107,9 +107,6 @@ std::string commandLine(const std::vector<std::string>& args) {
 
 }  // namespace
 
-// Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
-// frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
-// uninterrupted run's. Each kill leaves a later checkpoint than the one before it.
 // A checkpoint streamed to its file, its solver state counted first and never held whole, has
 // the bytes of the same checkpoint encoded at once; the one before stays as .prev. A state that
 // changes its length between the count and the write is an internal error that leaves the
@@ -167,6 +164,9 @@ TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
   EXPECT_EQ(bytesOf(path), second);
 }
 
+// Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
+// frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
+// uninterrupted run's. Each kill leaves a later checkpoint than the one before it.
 TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
   for (const Case& c : kCases) {
     const fs::path whole = freshDir("whole_" + c.name);

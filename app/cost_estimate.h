@@ -47,6 +47,7 @@ class CostEstimate {
   long steps_taken_;
   int particles_;
   double initial_step_;
+  bool open_cracks_;  // mpm.open_cracks: steps cost more once the snow stretches
   double particle_steps_;
   double seconds_after_first_ = -1;  // the steps' wall time after the first step
   bool said_ = false;

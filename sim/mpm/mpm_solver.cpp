@@ -71,6 +71,15 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
     particles_.calm_steps.assign(particles_.size(), 0);
     schedule_.keepStillBlocks();
   }
+  if (params_.open_cracks) {  // also checked where a scene file is read
+    if (!(material_.fracture_strain > 0) || params_.transfer != MpmTransfer::Mls ||
+        params_.integrator != MpmIntegrator::Explicit || params_.auto_sleep.enabled)
+      throw InputError(scene.file +
+                       ": mpm.open_cracks needs material.fracture_strain > 0, mpm.transfer "
+                       "\"mls\", mpm.integrator \"explicit\" and no mpm.auto_sleep");
+    cracks_ = std::make_unique<CrackOpening<D, T>>(grid_.nodeCount(), Schedule::colours,
+                                                   particles_.size(), T(params_.crack_friction));
+  }
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
   collider_speed_ = fastestColliderSpeed(colliders_, grid_.extent().norm());
@@ -135,6 +144,12 @@ void MpmSolver<D, T>::countSleepers() {
 template <int D, class T>
 template <class Transfer, class Kernel>
 void MpmSolver<D, T>::stepWith(T dt) {
+  // Until some snow is stretched past J_P = 1 there is no damage, and the plain step is the one
+  // with cracks.
+  crack_step_ =
+      Transfer::mls && cracks_ &&
+      std::any_of(particles_.J_P.begin(), particles_.J_P.end(), [](T J_P) { return J_P > 1; });
+  if (crack_step_) return stepWithCracks<Kernel>(dt);
   const bool semi_implicit = semiImplicit();
   const VectorIsa isa = vectorIsa();
   // The semi-implicit solve may throw and runs serial code between its parallel loops, so its
@@ -174,6 +189,73 @@ void MpmSolver<D, T>::stepWith(T dt) {
 }
 
 template <int D, class T>
+template <class Kernel>
+void MpmSolver<D, T>::stepWithCracks(T dt) {
+  const VectorIsa isa = vectorIsa();
+  CrackOpening<D, T>& cracks = *cracks_;
+  schedule_.step(particles_, true, [&] {
+    // The damage field, then each particle's damage gradient and each node's reference
+    // direction, which decide the sides of the scatter and the gather.
+    schedule_.scatter(
+        [&](int p, PartialGrid& g) {
+          cracks.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],
+                                                damage(p), g.colour);
+        },
+        "crack: damage");
+    schedule_.forScatteredNodes("crack: damage field", [&](int k) { cracks.sumDamage(k); });
+    schedule_.scatter(
+        [&](int p, PartialGrid& g) {
+          cracks.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
+                                               g.colour);
+        },
+        "crack: gradients");
+    schedule_.forScatteredNodes("crack: sides", [&](int k) { cracks.sumReference(k); });
+    // 1, 3: mass, momentum and forces to the grid, each into its side.
+    schedule_.scatter([&](int p, PartialGrid& g) {
+      if (cracks.nearDamage(p))
+        scatterParticleWithCracks<Kernel>(p, g, dt);
+      else
+        scatterParticleOn<MlsTransfer, Kernel>(isa, p, g, dt);
+    });
+    // 4, 5: each field's velocity, gravity and collisions; then the fields meet where they
+    // approach.
+    schedule_.updateNodes(fields_, [&](int k) {
+      velocityFromMomentum<MlsTransfer>(k);
+      accelerate<MlsTransfer>(k, dt);
+      collideNode(k);
+      cracks.updateNode(k, fields_.mass[k], fields_.velocity[k], dt, gravity_,
+                        [&](V& v) { collideAtNode(k, v); });
+    });
+    // 8, 7, 9, 10.
+    schedule_.passOverParticles("move particles", particles_.x, part_measures_,
+                                [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
+                                  moveParticles<MlsTransfer, Kernel>(batch, m, shares, dt, isa);
+                                });
+  });
+}
+
+template <int D, class T>
+template <class Kernel>
+void MpmSolver<D, T>::scatterParticleWithCracks(int p, PartialGrid& g, T dt) const {
+  // As scatterParticle's MLS branch, node by node into each node's side.
+  const T m = particles_.mass[p];
+  const T V0 = particles_.volume[p];
+  const M stress = V0 > 0 ? M(-V0 * particles_.tau[p].matrix()) : M::Zero();
+  const M A = m * particles_.C[p] + (dt * inertia_inverse_) * stress;
+  cracks_->template scatter<Kernel>(grid_, particles_.x[p], p, failed(p), m, V(m * particles_.v[p]),
+                                    A, g.mass.data(), g.momentum.data(), g.colour);
+}
+
+template <int D, class T>
+template <class Kernel>
+void MpmSolver<D, T>::gatherVelocityWithCracks(int p) {
+  M B;
+  particles_.v[p] = cracks_->template gather<Kernel>(grid_, particles_.x[p], p, failed(p),
+                                                     fields_.velocity.data(), B);
+  particles_.C[p] = inertia_inverse_ * B;
+}
+
+template <int D, class T>
 template <class Transfer, class Kernel>
 void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt,
                                     VectorIsa isa) {
@@ -189,8 +271,12 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
       x_before[count] = particles_.x[p];  // read only by restOrStir
     }
     awake[count++] = p;
-    gatherVelocityOn<Transfer, Kernel>(isa, p);  // 8 (gathered first: 7 needs grad v)
-    trialDeformation(p, dt);                     // 7
+    // 8 (gathered first: 7 needs grad v)
+    if (crack_step_ && cracks_->nearDamage(p))
+      gatherVelocityWithCracks<Kernel>(p);
+    else
+      gatherVelocityOn<Transfer, Kernel>(isa, p);
+    trialDeformation(p, dt);  // 7
   }
   returnMapping<Transfer>(std::span<const int>(awake, count), isa);
   BatchMaxima maxima;
@@ -428,18 +514,22 @@ void MpmSolver<D, T>::placeScreens() {
 
 template <int D, class T>
 void MpmSolver<D, T>::collideNode(int k) {
-  if (fields_.mass[k] <= 0) return;
+  if (fields_.mass[k] > 0) collideAtNode(k, fields_.velocity[k]);
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::collideAtNode(int k, V& velocity) const {
   const Vec<D> x = grid_.position(grid_.coords(k));
   const std::vector<int>& near = collidersNear(x);
   if (near.empty()) return;
   if constexpr (double_precision) {
     for (const int c : near)
-      if (mayTouch(c, x)) colliders_[c].collide(x, fields_.velocity[k]);
+      if (mayTouch(c, x)) colliders_[c].collide(x, velocity);
   } else {  // the colliders work in double
-    Vec<D> v = fields_.velocity[k].template cast<Real>();
+    Vec<D> v = velocity.template cast<Real>();
     for (const int c : near)
       if (mayTouch(c, x)) colliders_[c].collide(x, v);
-    fields_.velocity[k] = v.template cast<T>();
+    velocity = v.template cast<T>();
   }
 }
 
@@ -564,8 +654,10 @@ void MpmSolver<D, T>::returnMapping(std::span<const int> ps, VectorIsa isa) {
 
 template <int D, class T>
 void MpmSolver<D, T>::addDamperStress(int p, T sign) {
-  const Symmetric<D, T> damper =
-      viscousKirchhoffUpper<D, T>(particles_.C[p], T(material_.viscosity));
+  // Failing snow loses its damper with its elastic strength (SnowMaterial::fracture_strain).
+  T eta = T(material_.viscosity);
+  if (material_.fracture_strain > 0) eta *= strengthLeft<T>(material_, particles_.J_P[p]);
+  const Symmetric<D, T> damper = viscousKirchhoffUpper<D, T>(particles_.C[p], eta);
   for (int k = 0; k < Symmetric<D, T>::entries; ++k)
     particles_.tau[p].upper[k] += sign * damper.upper[k];
 }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <span>
 #include <type_traits>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "sim/core/grid.h"
 #include "sim/core/stencil.h"
 #include "sim/distributed/slab_decomposition.h"
+#include "sim/mpm/crack_opening.h"
 #include "sim/mpm/implicit_solve.h"
 #include "sim/mpm/mpm_particles.h"
 #include "sim/mpm/snow_material.h"
@@ -127,6 +129,18 @@ class MpmSolver final : public Solver<D> {
   const MpmParticles<D, T>& outputParticles() const;
   template <class Transfer, class Kernel>
   void stepWith(T dt);
+  // The MLS step with mpm.open_cracks: the damage field and the sides before the scatter, and
+  // each stage with the crack opening's fields beside the grid's (sim/mpm/crack_opening.h).
+  template <class Kernel>
+  void stepWithCracks(T dt);
+  // Whether particle p has no strength left (material.fracture_strain), and its damage.
+  bool failed(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]) <= 0; }
+  T damage(int p) const { return 1 - strengthLeft<T>(material_, particles_.J_P[p]); }
+  // 1 + 3 and 8 of MLS with the crack opening's sides.
+  template <class Kernel>
+  void scatterParticleWithCracks(int p, PartialGrid& g, T dt) const;
+  template <class Kernel>
+  void gatherVelocityWithCracks(int p);
 
   // The J_P a points body's file gives (a run continued from its frame); the elastic part starts
   // unstrained, as the file does not hold F_E.
@@ -172,8 +186,9 @@ class MpmSolver final : public Solver<D> {
   template <class Transfer>
   void velocityFromMomentum(int k);  // 4. v_i = momentum / m_i
   template <class Transfer>
-  void accelerate(int k, T dt);  // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void collideNode(int k);       // 5. grid-based body collisions (section 8)
+  void accelerate(int k, T dt);           // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
+  void collideNode(int k);                // 5. grid-based body collisions (section 8)
+  void collideAtNode(int k, V& v) const;  // 5 for a velocity v at node k
 
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -273,6 +288,8 @@ class MpmSolver final : public Solver<D> {
   Real viscous_speed_ = 0;
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;
+  std::unique_ptr<CrackOpening<D, T>> cracks_;  // with mpm.open_cracks
+  bool crack_step_ = false;  // this step runs with the crack opening's fields (stepWithCracks)
   mutable SlabDecomposition<D> slabs_;  // a gather for output reads every rank, also in const
   mutable MpmParticles<D, T> gathered_;
   mutable long gathered_at_step_ = -1;

@@ -9,9 +9,10 @@ namespace snowsim {
 
 template <class T>
 T hardeningFactor(const SnowMaterial& m, std::type_identity_t<T> J_P) {
-  return std::clamp(  // eq. 8, bounded
+  const T bounded = std::clamp(  // eq. 8, bounded
       std::exp(T(m.xi) * (1 - J_P)), T(m.hardening_min),
       T(std::min<Real>(m.hardening_max, std::numeric_limits<T>::max())));
+  return m.fracture_strain > 0 ? bounded * strengthLeft<T>(m, J_P) : bounded;
 }
 
 namespace {

@@ -3,6 +3,8 @@
 // mapping that clamps the singular values of the elastic deformation gradient. Pure functions.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <span>
 #include <type_traits>
 
@@ -28,6 +30,11 @@ struct SnowMaterial {
   // yields in tension at theta_s (less than theta_c) each ring stretches it a little more: the
   // damper stops that swelling (docs/snow-at-scale.md).
   Real viscosity = 0;
+  // Fracture strain eps_f: snow stretched past J_P = 1 keeps a share s = max(0, 1 - ln J_P / eps_f)
+  // of its strength (its Lamé pair and its damper), none from ln J_P = eps_f on, where it has
+  // failed. 0: never (the paper's model). Crack softening of the kind later MPM fracture work uses
+  // (docs/snow-at-scale.md, "Letting the cracks open").
+  Real fracture_strain = 0;
 
   // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
   Real mu0() const { return E0 / (2 * (1 + nu)); }
@@ -44,9 +51,16 @@ struct LameOf {
 };
 using Lame = LameOf<Real>;
 // The hardening factor h alone, which is what a particle keeps: 4 bytes in float where the pair
-// took 8, and the pair lameOf makes from it has the same bits as the pair kept before.
+// took 8, and the pair lameOf makes from it has the same bits as the pair kept before. With a
+// fracture strain it is the bounded h times the strength left (strengthLeft).
 template <class T = Real>
 T hardeningFactor(const SnowMaterial& m, std::type_identity_t<T> J_P);
+// The share of its strength snow at J_P keeps (SnowMaterial::fracture_strain): 1 without one.
+template <class T = Real>
+inline T strengthLeft(const SnowMaterial& m, std::type_identity_t<T> J_P) {
+  if (!(m.fracture_strain > 0) || !(J_P > 1)) return 1;
+  return std::max(T(0), 1 - std::log(J_P) / T(m.fracture_strain));
+}
 template <class T>
 LameOf<T> unhardenedLame(const SnowMaterial& m) {
   return {T(m.mu0()), T(m.lambda0())};

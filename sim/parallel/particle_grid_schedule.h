@@ -52,6 +52,7 @@ class ParticleGridSchedule final : public LoopRunner {
   using Position = Vec<D, Scalar>;
   using Fields = GridFields<D, Scalar>;
   static constexpr int drift_cells = Binning::drift_cells;
+  static constexpr int colours = Binning::colours;
   // The particles the particle pass hands over at once: the 3D return mapping runs them in vector
   // lanes, and those that need an SVD in lanes of their own (sim/mpm/snow_material.h).
   static constexpr int pass_batch = 64;
@@ -62,6 +63,9 @@ class ParticleGridSchedule final : public LoopRunner {
   struct PartialGrid {
     ZeroPageVector<Scalar> mass;
     ZeroPageVector<Position> momentum, force;  // force stays empty when the physics has none
+    // Which of the colours' grids this is: fields of the physics' own kept per colour (as the
+    // crack opening's sides, sim/mpm/crack_opening.h) are written race-free where this one is.
+    int colour = 0;
   };
 
   // particles: how many the step moves; force_field: whether the scatter writes a force per node
@@ -104,7 +108,7 @@ class ParticleGridSchedule final : public LoopRunner {
   // share of a total that orderedSum() adds up chunk by chunk, the same on any thread count. Each
   // part then also checks that its particles stayed within their rows' cells.
   template <class F>
-  void scatter(F&& f);
+  void scatter(F&& f, std::string_view stage = "scatter");
   // From now on, the scatter with stillness keeps what blocks of still particles scattered (3D
   // only: see below).
   void keepStillBlocks() {
@@ -113,7 +117,10 @@ class ParticleGridSchedule final : public LoopRunner {
       still_ = std::make_unique<StillBlocks<D, PartialGrid, Scalar>>(
           grid_, binning_.blocks(), Binning::block_cells, force_field_);
       still_scratch_.resize(Binning::colours);
-      for (PartialGrid& g : still_scratch_) resizePartialGrid(g);
+      for (int colour = 0; colour < Binning::colours; ++colour) {
+        resizePartialGrid(still_scratch_[colour]);
+        still_scratch_[colour].colour = colour;
+      }
     }
   }
   // What the still blocks kept no longer holds: the particles changed outside a step (a particle
@@ -143,6 +150,10 @@ class ParticleGridSchedule final : public LoopRunner {
   // runs on any (e.g. to add what other ranks' particles gave the nodes they share).
   template <class F, class Between>
   void updateNodes(Fields& fields, F&& f, Between&& between);
+  // f(k) for the nodes updateNodes visits, those this step's scatter may have reached, without
+  // summing the partial grids: for fields of the physics' own that a scatter of its own summed.
+  template <class F>
+  void forScatteredNodes(std::string_view stage, F&& f);
   // The nodes the particles reach now (sim/parallel/row_binning.h).
   const NodeBox<D>& activeNodes() const { return binning_.active(); }
   template <class Measure, class F>
@@ -287,9 +298,9 @@ void ParticleGridSchedule<D, P>::step(P& particles, bool shared, Body&& body) {
 
 template <int D, class P>
 template <class F>
-void ParticleGridSchedule<D, P>::scatter(F&& f) {
-  const StageClock::Scope time = timeStage("scatter");
-  team_.forEachPart("scatter", [&](int part) {
+void ParticleGridSchedule<D, P>::scatter(F&& f, std::string_view stage) {
+  const StageClock::Scope time = timeStage(stage);
+  team_.forEachPart(stage, [&](int part) {
     const auto [first, last] = binning_.partRows(part);
     for (int row = first; row < last; ++row) {
       PartialGrid& g = partial_[binning_.rowColour(row)];
@@ -365,6 +376,22 @@ void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
         }
       });
     if (parallel_) line_shares_.record(part, last - first, secondsSince(start));
+  });
+}
+
+template <int D, class P>
+template <class F>
+void ParticleGridSchedule<D, P>::forScatteredNodes(std::string_view stage, F&& f) {
+  const NodeBox<D>& box = binning_.updated();
+  const int width = box.hi[0] - box.lo[0];
+  const int lines = width > 0 ? box.count() / width : 0;
+  const StageClock::Scope time = timeStage(stage);
+  team_.forEachPart(stage, [&](int part) {
+    const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
+    for (int line = first; line < last; ++line)
+      binning_.forUpdatedRuns(line, [&](int k, int count) {
+        for (int i = 0; i < count; ++i) f(k + i);
+      });
   });
 }
 
@@ -492,7 +519,10 @@ ParticleGridSchedule<D, P>::ParticleGridSchedule(const GridGeometry<D>& grid, in
   resizeSpare();
   chunk_sums_.resize((particles + chunk - 1) / chunk);
   partial_.resize(Binning::colours);
-  for (PartialGrid& g : partial_) resizePartialGrid(g);
+  for (int colour = 0; colour < Binning::colours; ++colour) {
+    resizePartialGrid(partial_[colour]);
+    partial_[colour].colour = colour;
+  }
   prepare();
 }
 

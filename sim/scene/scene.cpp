@@ -244,6 +244,14 @@ MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
     p.auto_sleep.steps = a.integer("steps", p.auto_sleep.steps, 1, 1000000);
     a.finish();
   }
+  p.open_cracks = f.boolean("open_cracks", p.open_cracks);
+  p.crack_friction = f.number("crack_friction", p.crack_friction, 0, 1e3);
+  if (p.open_cracks && p.transfer != MpmTransfer::Mls)
+    f.fail("open_cracks", "runs with mpm.transfer \"mls\" only");
+  if (p.open_cracks && p.integrator != MpmIntegrator::Explicit)
+    f.fail("open_cracks", "runs with mpm.integrator \"explicit\" only");
+  if (p.open_cracks && p.auto_sleep.enabled)
+    f.fail("open_cracks", "runs without mpm.auto_sleep; set mpm.auto_sleep.enabled to false");
   f.finish();
   return p;
 }
@@ -260,6 +268,7 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.hardening_min = f.number("hardening_min", m.hardening_min, 0, 1);
   m.hardening_max = f.number("hardening_max", m.hardening_max, 1, 1e300);
   m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
+  m.fracture_strain = f.number("fracture_strain", m.fracture_strain, 0, 100);
   f.finish();
   return m;
 }
@@ -600,6 +609,10 @@ Scene parseScene(const Json& root, const std::string& file) {
     throw InputError(file +
                      ": material.viscosity runs only mpm.integrator \"explicit\" (the "
                      "semi-implicit solve has no damper in its stress differential); set it to 0");
+  if (s.mpm.open_cracks && !(s.material.fracture_strain > 0))
+    throw InputError(file +
+                     ": mpm.open_cracks needs material.fracture_strain > 0 (the strain at which "
+                     "snow fails and a crack can open)");
   if (const Json* colliders = f.array("colliders", false))
     for (size_t i = 0; i < colliders->size(); ++i)
       s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));
@@ -696,6 +709,9 @@ void refuseWhatIsNotDistributed(const Scene& scene, int ranks) {
       scene.mpm.precision == MpmPrecision::Double)
     throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
                      "across MPI ranks only \"explicit\" is distributed");
+  if (scene.mpm.open_cracks)
+    throw InputError(scene.file + ": mpm.open_cracks runs in one process; set it to false to " +
+                     "split the run across MPI ranks");
 }
 
 }  // namespace snowsim

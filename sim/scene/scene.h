@@ -87,6 +87,11 @@ struct MpmParams {
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
   AutoSleep auto_sleep;
+  // Two velocities a node across damaged snow and failed snow as loose grains (sim/mpm/
+  // crack_opening.h): needs material.fracture_strain, the MLS transfer, the explicit integrator,
+  // no auto-sleep and one process.
+  bool open_cracks = false;
+  double crack_friction = 0.6;  // Coulomb coefficient where the fields of open_cracks touch
 };
 
 // A closed triangle mesh file placed in the scene (3D scenes): scaled, rotated, then moved to the

@@ -55,7 +55,9 @@ Json mpmJson(const MpmParams& p) {
       {"auto_sleep",
        {{"enabled", p.auto_sleep.enabled},
         {"speed", p.auto_sleep.speed},
-        {"steps", p.auto_sleep.steps}}}};
+        {"steps", p.auto_sleep.steps}}},
+      {"open_cracks", p.open_cracks},
+      {"crack_friction", p.crack_friction}};
 }
 
 void writeMesh(const SceneMesh& m, Json& j) {
@@ -184,7 +186,8 @@ Json sceneToJson(const Scene& s) {
               {"xi", s.material.xi},
               {"hardening_min", s.material.hardening_min},
               {"hardening_max", s.material.hardening_max},
-              {"viscosity", s.material.viscosity}}},
+              {"viscosity", s.material.viscosity},
+              {"fracture_strain", s.material.fracture_strain}}},
             {"colliders", Json::array()},
             {"time", {{"dt", s.dt}, {"duration", s.duration}, {"fps", s.fps}}},
             {"particles_per_cell", s.particles_per_cell},

@@ -258,6 +258,14 @@ TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
   EXPECT_EQ(e.output.find("frame "), std::string::npos) << e.output;
   EXPECT_FALSE(fs::exists(none));
 
+  // Cracks that open cost more once the snow stretches, which the first steps may not show.
+  const Result cracks = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
+                                   " --estimate --set solver=mpm --set mpm.open_cracks=true "
+                                   "--set material.fracture_strain=0.3");
+  ASSERT_EQ(cracks.code, 0) << cracks.output;
+  EXPECT_NE(cracks.output.find("with mpm.open_cracks a step takes"), std::string::npos)
+      << cracks.output;
+
   // A run of no duration (a scene's first frame only) takes no step, not "-0".
   const Result zero = runSnowsim("run " + scene("snowball_drop") + " -o " + none.string() +
                                  " --estimate --set time.duration=0");

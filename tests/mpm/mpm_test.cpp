@@ -712,6 +712,11 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
     expectBitIdenticalOnAnyThreadCount<2>(j, transfer);
   }
   expectBitIdenticalOnAnyThreadCount<2, float>(j, "mls, float");
+  j["mpm"] = {{"open_cracks", true}};  // the crack opening's fields are summed per colour too
+  j["material"] = {{"fracture_strain", 0.02}};
+  expectBitIdenticalOnAnyThreadCount<2>(j, "mls, cracks open");
+  j.erase("material");
+  j["mpm"] = {{"transfer", "mls"}};
   expectSameOnEveryVectorIsa<2>(j, "2D MLS, transfers for any processor");
   expectSameOnEveryVectorIsa<2, float>(j, "2D MLS, float, transfers for any processor");
   j["mpm"] = {{"integrator", "semi_implicit"}};
@@ -726,6 +731,11 @@ TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   j["mpm"] = {{"transfer", "apic"}};
   expectBitIdenticalOnAnyThreadCount<3>(j, "3D APIC");
   expectBitIdenticalOnAnyThreadCount<3, float>(j, "3D APIC, float");
+  j["mpm"] = {{"open_cracks", true}};
+  j["material"] = {{"fracture_strain", 0.02}};
+  expectBitIdenticalOnAnyThreadCount<3, float>(j, "3D MLS, float, cracks open");
+  j.erase("material");
+  j["mpm"] = {{"transfer", "apic"}};
   expectSameOnEveryVectorIsa<3>(j, "3D APIC, transfers for any processor");
   expectSameOnEveryVectorIsa<3, float>(j, "3D APIC, float, transfers for any processor");
 }

@@ -1,0 +1,252 @@
+// Cracks that open (mpm.open_cracks; docs/snow-at-scale.md, "Letting the cracks open"). With one
+// velocity a node, snow on either side of a crack shares the nodes across it and the crack never
+// opens. Here a node near damaged snow keeps two velocities, one for each side of the damage, as
+// in the damage-field-gradient partitioning of Homel and Herbold 2017 ("Field-gradient
+// partitioning for fracture and frictional contact in the material point method", IJNME 109): a
+// particle takes side 0 of a node when its damage gradient points the way of the largest damage
+// gradient among the particles that reach the node, else side 1, and the two sides share one
+// velocity only while they approach. Snow with no strength left (SnowMaterial::fracture_strain)
+// moves in a third field of loose grains, which meets either side only while moving into it along
+// that side's outward normal at the node. Fields that meet are in contact with Coulomb friction
+// (mpm.crack_friction).
+//
+// Side 0 is the solver's own grid (its partial grids and GridFields); this class holds the other
+// two fields, the damage field and the nodes' reference directions, per colour of the scatter
+// (summed in colour order, so the results do not depend on the thread count) and per node. The
+// functions are per particle and per node; the solver's step schedules them (MpmSolver).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "sim/core/grid.h"
+#include "sim/core/stencil.h"
+#include "sim/parallel/zero_page_allocator.h"
+
+namespace snowsim {
+
+template <int D, class T>
+class CrackOpening {
+ public:
+  using V = Vec<D, T>;
+  using M = Mat<D, T>;
+  static constexpr int grains = 2;  // the field of failed snow; sides 0 and 1 are intact
+
+  // friction: the Coulomb coefficient between the faces of a crack, and between grains and the
+  // intact snow.
+  CrackOpening(int nodes, int colours, int particles, T friction)
+      : partial_(colours), gradient_(particles), near_damage_(particles), friction_(friction) {
+    for (Partial& p : partial_) p.resize(nodes);
+    node_.resize(nodes);
+  }
+
+  // The damage field: each particle's mass and damage d = 1 - strength left into colour c (1),
+  // then per node their mass-weighted mean (2).
+  template <class Kernel>
+  void scatterDamage(const GridGeometry<D>& grid, const V& x, T mass, T damage, int c) {
+    Partial& g = partial_[c];
+    forEachNode<Kernel>(grid, x, [&](int k, T w, const V&) {
+      g.damage_mass[k] += w * mass;
+      g.damage[k] += w * mass * damage;
+    });
+  }
+  void sumDamage(int k) {
+    T mass = 0, damage = 0;
+    for (Partial& g : partial_) {
+      mass += g.damage_mass[k];
+      damage += g.damage[k];
+      if (g.damage_mass[k] != 0 || g.damage[k] != 0) g.damage_mass[k] = g.damage[k] = 0;
+    }
+    node_.damage[k] = mass > 0 ? damage / mass : T(0);
+  }
+
+  // Particle p's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p) (3), and the
+  // largest of them among the particles that reach each node, into colour c; per node, the
+  // largest over the colours (4), in colour order: ties keep the first.
+  template <class Kernel>
+  void findGradient(const GridGeometry<D>& grid, const V& x, T inertia_inverse, int p, int c) {
+    V sum = V::Zero();
+    bool near = false;
+    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
+      sum += (w * node_.damage[k]) * dx;
+      near |= node_.damage[k] > 0;
+    });
+    near_damage_[p] = near;
+    const V gradient = inertia_inverse * sum;
+    gradient_[p] = gradient;
+    const T norm = gradient.norm();
+    if (!(norm > 0)) return;
+    Partial& g = partial_[c];
+    forEachNode<Kernel>(grid, x, [&](int k, T w, const V&) {
+      if (w > 0 && norm > g.reference_norm[k]) {
+        g.reference_norm[k] = norm;
+        g.reference[k] = gradient;
+      }
+    });
+  }
+  void sumReference(int k) {
+    T largest = 0;
+    V reference = V::Zero();
+    for (Partial& g : partial_) {
+      if (g.reference_norm[k] > largest) {
+        largest = g.reference_norm[k];
+        reference = g.reference[k];
+      }
+      if (g.reference_norm[k] != 0) {
+        g.reference_norm[k] = 0;
+        g.reference[k].setZero();
+      }
+    }
+    node_.reference[k] = reference;
+  }
+
+  // Whether a node of particle p's stencil holds damage. If none does, p scatters to and gathers
+  // from side 0 of every node, and no grains reach them, so their outward normals are not needed:
+  // the solver's own scatter and gather do for it.
+  bool nearDamage(int p) const { return near_damage_[p]; }
+
+  // Which field of node k particle p scatters to and gathers from: the grains once it failed,
+  // else the side its damage gradient lies on (side 0 where the node has no reference).
+  int side(const V& gradient, bool failed, int k) const {
+    return failed ? grains : int(gradient.dot(node_.reference[k]) < 0);
+  }
+
+  // MLS's scatter (the solver's scatterParticle) with sides (5): node k of the stencil takes
+  // w m and w (m v + A (x_i - x_p)) into its side, side 0 being mass0 and momentum0 (the solver's
+  // partial grid of colour c); intact snow also adds w m (x_i - x_p) to its side's outward normal.
+  template <class Kernel>
+  void scatter(const GridGeometry<D>& grid, const V& x, int p, bool failed, T m, const V& mv,
+               const M& A, T* mass0, V* momentum0, int c) {
+    Partial& g = partial_[c];
+    const V gradient = gradient_[p];
+    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
+      const int s = side(gradient, failed, k);
+      const T wm = w * m;
+      const V momentum = w * (mv + A * dx);
+      if (s == 0) {
+        mass0[k] += wm;
+        momentum0[k] += momentum;
+      } else {
+        g.mass[s - 1][k] += wm;
+        g.momentum[s - 1][k] += momentum;
+      }
+      if (s != grains) g.normal[s][k] += wm * dx;
+    });
+  }
+
+  // Node k after the solver updated its side 0 (v0 with gravity and collisions; mass0 its mass)
+  // (6): the other fields summed over the colours, their velocities with gravity and
+  // collide(v); then the two sides, where they approach each other, and the grains, where they
+  // move into either side, in contact with Coulomb friction.
+  template <class Collide>
+  void updateNode(int k, T mass0, V& v0, T dt, const V& gravity, Collide&& collide) {
+    T m[3] = {mass0, 0, 0};
+    V normal[2] = {V::Zero(), V::Zero()};
+    for (int f = 1; f < 3; ++f) node_.velocity[f - 1][k].setZero();
+    for (Partial& g : partial_) {
+      for (int f = 1; f < 3; ++f) {
+        m[f] += g.mass[f - 1][k];
+        node_.velocity[f - 1][k] += g.momentum[f - 1][k];
+        if (g.mass[f - 1][k] != 0) {
+          g.mass[f - 1][k] = 0;
+          g.momentum[f - 1][k].setZero();
+        }
+      }
+      for (int s = 0; s < 2; ++s) {
+        normal[s] += g.normal[s][k];
+        if (!g.normal[s][k].isZero(0)) g.normal[s][k].setZero();
+      }
+    }
+    for (int f = 1; f < 3; ++f) {
+      V& v = node_.velocity[f - 1][k];
+      if (m[f] <= 0) {
+        v.setZero();
+        continue;
+      }
+      v = v / m[f] + dt * gravity;
+      collide(v);
+    }
+    V* v[3] = {&v0, &node_.velocity[0][k], &node_.velocity[1][k]};
+    // Side 0 lies behind the reference direction r: the sides approach while (v0 - v1).r > 0.
+    const V& r = node_.reference[k];
+    if (m[0] > 0 && m[1] > 0 && (v0 - *v[1]).dot(r) > 0) touch(m[0], v0, m[1], *v[1], r);
+    // The grains move into side s while (v_s - v_g).n_s > 0, n_s the side's outward normal.
+    for (int s = 0; s < 2; ++s)
+      if (m[grains] > 0 && m[s] > 0 && (*v[s] - *v[grains]).dot(normal[s]) > 0)
+        touch(m[s], *v[s], m[grains], *v[grains], normal[s]);
+  }
+
+  // MLS's gather with sides (7): v_p = sum_i w v_i and B_p = sum_i w v_i (x_i - x_p)^T, each node's
+  // v_i that of particle p's field there (side 0's from v0, the solver's grid).
+  template <class Kernel>
+  V gather(const GridGeometry<D>& grid, const V& x, int p, bool failed, const V* v0, M& B) const {
+    V v = V::Zero();
+    B.setZero();
+    const V gradient = gradient_[p];
+    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
+      const int s = side(gradient, failed, k);
+      const V& v_i = s == 0 ? v0[k] : node_.velocity[s - 1][k];
+      v += w * v_i;
+      B += (w * v_i) * dx.transpose();
+    });
+    return v;
+  }
+
+ private:
+  // Fields a and b in contact across a surface of normal n (from a to b, any length), a moving
+  // into b: their normal velocities become their centre of mass's, and the slip along the surface
+  // slows by at most friction times that normal change, stopping if that suffices (Coulomb
+  // friction, as in Bardenhagen et al. 2001's multi-field contact). Momentum is kept.
+  void touch(T m_a, V& v_a, T m_b, V& v_b, const V& n) const {
+    const V unit = n.normalized();
+    const V stick = (m_a * v_a + m_b * v_b) / (m_a + m_b) - v_a;  // a's change to move with b
+    const T normal_change = stick.dot(unit);
+    const V slip = stick - normal_change * unit;
+    const T slip_norm = slip.norm(), most = friction_ * std::abs(normal_change);
+    const V change = slip_norm > most ? V(normal_change * unit + (most / slip_norm) * slip) : stick;
+    v_a += change;
+    v_b -= (m_a / m_b) * change;
+  }
+  // f(k, w, x_i - x_p) for each node k of the stencil at x.
+  template <class Kernel, class F>
+  static void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
+    const Stencil<D, Kernel, T> s(x, T(1 / grid.h));
+    visitStencil(grid, s, x, [&](const StencilVisit<D, T>& node) {
+      f(node.index, s.weightAt(node.offset), node.dx);
+    });
+  }
+  template <class U>
+  using ZeroPageVector = std::vector<U, ZeroPageAllocator<U>>;
+  // What one colour's rows scatter. Grid-sized, only the nodes near the snow take memory, and
+  // each is zeroed by the node pass that sums it.
+  struct Partial {
+    ZeroPageVector<T> damage_mass, damage, reference_norm;
+    ZeroPageVector<V> reference;
+    ZeroPageVector<V> normal[2];  // each side's outward normal
+    ZeroPageVector<T> mass[2];    // side 1, grains
+    ZeroPageVector<V> momentum[2];
+    void resize(int nodes) {
+      for (auto* a : {&damage_mass, &damage, &reference_norm, &mass[0], &mass[1]}) a->resize(nodes);
+      for (auto* a : {&reference, &normal[0], &normal[1], &momentum[0], &momentum[1]})
+        a->resize(nodes);
+    }
+  };
+  struct Nodes {
+    ZeroPageVector<T> damage;
+    ZeroPageVector<V> reference;
+    ZeroPageVector<T> mass[2];  // side 1, grains
+    ZeroPageVector<V> velocity[2];
+    void resize(int nodes) {
+      for (auto* a : {&damage, &mass[0], &mass[1]}) a->resize(nodes);
+      for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
+    }
+  };
+  std::vector<Partial> partial_;
+  Nodes node_;
+  std::vector<V> gradient_;  // per particle, this step's
+  std::vector<char> near_damage_;
+  T friction_;
+};
+
+}  // namespace snowsim

@@ -1,0 +1,165 @@
+// Snow that fails (material.fracture_strain) and cracks that open (mpm.open_cracks,
+// sim/mpm/crack_opening.h).
+#include "sim/mpm/crack_opening.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "sim/core/errors.h"
+#include "sim/mpm/mpm_solver.h"
+#include "sim/scene/json_fields.h"
+#include "sim/scene/sampling.h"
+
+using namespace snowsim;
+
+namespace {
+
+template <class Solver>
+void runFor(Solver& s, Real duration) {
+  for (Real t = 0; t < duration - 1e-12;) {
+    const Real dt = std::min(s.stableTimeStep(), duration - t);
+    s.step(dt);
+    t += dt;
+  }
+}
+
+// A bar 0.4 m long and 0.1 m tall whose halves slide past each other at 0.5 m/s each, the upper
+// one forwards, without gravity, along a band of failed snow one cell thick at y = 0.1 (J_P = 2,
+// past the fracture strain 0.3).
+struct ShearedBar {
+  static constexpr Real middle = 0.1, speed = 0.5;
+  Scene scene;
+  Particles<2> particles;
+  std::vector<Real> y0;  // each particle's height at the start, by id
+
+  explicit ShearedBar(bool open_cracks) {
+    Json j = Json::parse(R"({
+      "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
+      "grid": {"cells": [80, 20], "cell_size": 0.01},
+      "particles_per_cell": 4,
+      "material": {"fracture_strain": 0.3},
+      "bodies": [{"shape": "box", "center": [0.4, 0.1], "size": [0.4, 0.1]}]
+    })");
+    j["mpm"] = {{"open_cracks", open_cracks}};
+    scene = parseScene(j, "bar.json");
+    particles = sampleBodies<2>(scene);
+    auto start = std::make_shared<Snapshot>();  // J_P as a points body's file gives it
+    for (int p = 0; p < particles.size(); ++p) {
+      const Real y = particles.x[p][1];
+      particles.v[p] = Vec<2>(y < middle ? -speed : speed, 0);
+      start->plastic_j.push_back(std::abs(y - middle) < 0.005 ? 2.0f : 1.0f);
+      y0.push_back(y);
+    }
+    scene.bodies[0].points = start;
+  }
+
+  // The mean x velocity of the intact snow below and above the band.
+  std::pair<Real, Real> halvesSpeeds(const MpmSolver<2>& s) const {
+    const Particles<2>& p = s.particles();
+    Real sum[2] = {0, 0};
+    int count[2] = {0, 0};
+    for (int i = 0; i < p.size(); ++i) {
+      const Real y = y0[p.id[i]];
+      if (std::abs(y - middle) < 0.005) continue;
+      const int half = y < middle ? 0 : 1;
+      sum[half] += p.v[i][0];
+      ++count[half];
+    }
+    return {sum[0] / count[0], sum[1] / count[1]};
+  }
+};
+
+}  // namespace
+
+TEST(Fracture, SnowLosesItsStrengthBetweenNoStretchAndTheFractureStrain) {
+  SnowMaterial m;
+  m.hardening_min = 0.2;
+  m.hardening_max = 5;
+  const Real bounded = hardeningFactor(m, std::exp(0.15));
+  EXPECT_EQ(strengthLeft(m, 2.0), 1) << "no fracture strain: the paper's model";
+  m.fracture_strain = 0.3;
+  EXPECT_DOUBLE_EQ(hardeningFactor(m, 0.9), std::exp(1.0)) << "compacted snow keeps it";
+  EXPECT_EQ(strengthLeft(m, 1.0), 1);
+  EXPECT_NEAR(strengthLeft(m, std::exp(0.15)), 0.5, 1e-15);
+  EXPECT_NEAR(hardeningFactor(m, std::exp(0.15)), 0.5 * bounded, 1e-15);
+  EXPECT_EQ(hardeningFactor(m, std::exp(0.3) * 1.001), 0) << "failed snow has no strength";
+  EXPECT_EQ(strengthLeft<float>(m, 10.0f), 0);
+}
+
+// With one velocity a node the two halves share the nodes along the band and drag each other
+// to a stop; with two sides a node they slide past each other as they started.
+TEST(CrackOpening, TheHalvesOfAShearedBarSlideAlongAFailedBand) {
+  for (const bool open : {false, true}) {
+    ShearedBar bar(open);
+    MpmSolver<2> s(bar.scene, bar.particles, 1);
+    runFor(s, 0.02);
+    const auto [below, above] = bar.halvesSpeeds(s);
+    std::printf("%s: %.4f %.4f\n", open ? "open" : "one velocity", below, above);
+    if (open) {
+      EXPECT_NEAR(below, -ShearedBar::speed, 0.01);
+      EXPECT_NEAR(above, ShearedBar::speed, 0.01);
+    } else {
+      EXPECT_LT(above - below, 1.6 * ShearedBar::speed) << "one velocity a node";
+    }
+  }
+}
+
+// Each particle scatters to and gathers from one field of each node, so the particles' momentum
+// is the grid's and the grid's the particles': two balls that collide and break keep their total
+// momentum to round-off.
+TEST(CrackOpening, CollidingBallsThatBreakKeepTheirMomentum) {
+  Json j = Json::parse(R"({
+    "name": "balls", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
+    "grid": {"cells": [60, 30], "cell_size": 0.01},
+    "particles_per_cell": 4,
+    "material": {"fracture_strain": 0.05},
+    "mpm": {"open_cracks": true},
+    "bodies": [{"shape": "ball", "center": [0.2, 0.15], "radius": 0.06, "velocity": [3, 0.5]},
+               {"shape": "ball", "center": [0.4, 0.14], "radius": 0.05, "velocity": [-3, 0]}]
+  })");
+  const Scene scene = parseScene(j, "balls.json");
+  MpmSolver<2> s(scene, sampleBodies<2>(scene), 1);
+  const auto momentum = [&] {
+    Vec<2> P = Vec<2>::Zero();
+    for (int i = 0; i < s.particles().size(); ++i) P += s.particles().mass[i] * s.particles().v[i];
+    return P;
+  };
+  const Vec<2> before = momentum();
+  runFor(s, 0.03);
+  int failed = 0;
+  for (const Real J_P : s.plasticJ()) failed += J_P >= std::exp(0.05);
+  EXPECT_GT(failed, 20) << "the balls must break for the crack's fields to take part";
+  Real mass = 0;
+  for (const Real m : s.particles().mass) mass += m;
+  EXPECT_LT((momentum() - before).norm(), 1e-12 * mass * 3) << momentum().transpose();
+}
+
+TEST(CrackOpening, BadSettingsNameTheField) {
+  Json j = Json::parse(R"({
+    "name": "t", "dimension": 2, "solver": "mpm",
+    "grid": {"cells": [20, 20], "cell_size": 0.01},
+    "bodies": [{"shape": "ball", "center": [0.1, 0.1], "radius": 0.03}]
+  })");
+  const auto problem = [&](const Json& mpm, Real fracture_strain) -> std::string {
+    Json scene = j;
+    scene["mpm"] = mpm;
+    scene["material"] = {{"fracture_strain", fracture_strain}};
+    try {
+      refuseWhatIsNotDistributed(parseScene(scene, "t.json"), 2);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(problem({{"open_cracks", true}}, 0).find("material.fracture_strain > 0"),
+            std::string::npos);
+  EXPECT_NE(problem({{"open_cracks", true}, {"transfer", "apic"}}, 0.3).find("mpm.open_cracks"),
+            std::string::npos);
+  EXPECT_NE(problem({{"open_cracks", true}, {"auto_sleep", {{"enabled", true}}}}, 0.3)
+                .find("mpm.auto_sleep.enabled"),
+            std::string::npos);
+  EXPECT_NE(problem({{"open_cracks", true}}, 0.3).find("one process"), std::string::npos);
+  EXPECT_NE(problem(Json::object(), -1).find("material.fracture_strain"), std::string::npos);
+}

@@ -86,17 +86,17 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   const bool solves = simulation.implicitSolves().solves > 0;
   // Cracks that open cost their passes only once some snow has stretched past J_P = 1, which the
   // first steps before an impact do not show (docs/snow-at-scale.md measures the factor).
-  const char* more = solves ? " or its solves take more iterations, as they do once the snow lands"
-                     : open_cracks_
-                         ? "; with mpm.open_cracks a step takes 4 to 6 times as long once "
-                           "snow has stretched"
-                         : "";
+  const char* caveat =
+      solves         ? " or its solves take more iterations, as they do once the snow lands"
+      : open_cracks_ ? "; with mpm.open_cracks a step takes 5 to 6 times as long once "
+                       "any snow has stretched past J_P = 1"
+                     : "";
   char text[400];  // the scene's name, of any length, goes in front
   std::snprintf(text, sizeof text,
                 ": estimate: the steps take about %s (%s particle-steps a second over steps "
                 "2-%d; more if the step shrinks%s); rendering and writing frames come on top",
                 roughDuration(particle_steps_ / rate).c_str(), roughCount(rate).c_str(),
-                1 + measured_steps, more);
+                1 + measured_steps, caveat);
   return name_ + text;
 }
 

@@ -40,11 +40,6 @@ constexpr int D = 3;
 using V = Vec<D>;
 using M = Mat<D>;
 
-// What softening leaves of the snow's strength: 1 up to J_P = 1, 0 from ln J_P = eps_f.
-Real strengthLeft(Real J_P, Real eps_f) {
-  return J_P <= 1 ? 1 : std::max<Real>(0, 1 - std::log(J_P) / eps_f);
-}
-
 // The grid: per node, each field's mass and velocity (sides 0 and 1 of the intact snow, and the
 // failed snow's grains), the mean damage, the largest damage gradient of the particles that reach
 // it (the side's reference direction), and the intact snow's outward normal (unnormalised).
@@ -81,7 +76,9 @@ struct Experiment {
   // stress needs.
   std::vector<M> rotation;
   std::vector<char> failed;  // per particle, this step: no strength left, moved as a grain
-  Real eps_f;
+  // The scene's material with the experiment's fracture strain, for strengthLeft only: the
+  // reference step's hardened Lamé pair stays the one without it, softened below.
+  SnowMaterial failing;
   bool split, free_grains;
 
   int sideOf(int p, int i) const {
@@ -95,7 +92,7 @@ struct Experiment {
   void findSides(Real D_inv) {
     const int n = s.x.size();
     for (int p = 0; p < n; ++p) {
-      const Real d = 1 - strengthLeft(s.J_P[p], eps_f);
+      const Real d = 1 - strengthLeft(failing, s.J_P[p]);
       forEachReferenceNode<D>(s.grid, s.x[p], [&](int i, Real w, const V&) {
         grid.mass[0][i] += w * s.m[p];
         grid.damage[i] += w * s.m[p] * d;
@@ -124,10 +121,10 @@ struct Experiment {
     const int n = s.x.size();
     placeColliders(s.colliders, s.time);
     grid.clear();
-    for (int p = 0; p < n; ++p) failed[p] = free_grains && strengthLeft(s.J_P[p], eps_f) <= 0;
+    for (int p = 0; p < n; ++p) failed[p] = free_grains && strengthLeft(failing, s.J_P[p]) <= 0;
     if (split) findSides(D_inv);
     for (int p = 0; p < n; ++p) {
-      const Real left = strengthLeft(s.J_P[p], eps_f);
+      const Real left = strengthLeft(failing, s.J_P[p]);
       Lame lame = hardenedLame(s.material, s.J_P[p]);
       lame.mu *= left, lame.lambda *= left;
       M tau = fixedCorotatedKirchhoff<D>(s.F_E[p], rotation[p], lame);
@@ -195,6 +192,11 @@ struct Experiment {
   }
 };
 
+SnowMaterial failingMaterial(SnowMaterial m, Real eps_f) {
+  m.fracture_strain = eps_f;
+  return m;
+}
+
 struct Options {
   std::string scene, out;
   std::vector<std::string> overrides;
@@ -210,15 +212,8 @@ void run(const Options& o) {
   const Particles<D> particles = sampleBodies<D>(scene);
   // The frames' format (grid, colliders, masses, radii) from the solver's own first frame.
   Snapshot frame = makeSimulation(scene, 1)->snapshot(0);
-  Experiment e{makeReferenceState<D>(scene, particles),
-               TwoSidedGrid(0),
-               {},
-               {},
-               {},
-               {},
-               o.eps_f,
-               o.split,
-               o.free_grains};
+  Experiment e{makeReferenceState<D>(scene, particles),  TwoSidedGrid(0), {},           {}, {}, {},
+               failingMaterial(scene.material, o.eps_f), o.split,         o.free_grains};
   e.grid = TwoSidedGrid(e.s.grid.nodeCount());
   e.damage_gradient.assign(e.s.x.size(), V::Zero());
   e.density.assign(e.s.x.size(), 0);

@@ -1,7 +1,7 @@
-// Cracks that open (mpm.open_cracks; docs/snow-at-scale.md, "Letting the cracks open"). With one
-// velocity a node, snow on either side of a crack shares the nodes across it and the crack never
-// opens. Here a node near damaged snow keeps two velocities, one for each side of the damage, as
-// in the damage-field-gradient partitioning of Homel and Herbold 2017 ("Field-gradient
+// Cracks that open (mpm.open_cracks; docs/snow-at-scale.md, "Cracks that open in the solver"). With
+// one velocity a node, snow on either side of a crack shares the nodes across it and the crack
+// never opens. Here a node near damaged snow keeps two velocities, one for each side of the damage,
+// as in the damage-field-gradient partitioning of Homel and Herbold 2017 ("Field-gradient
 // partitioning for fracture and frictional contact in the material point method", IJNME 109): a
 // particle takes side 0 of a node when its damage gradient points the way of the largest damage
 // gradient among the particles that reach the node, else side 1, and the two sides share one
@@ -16,7 +16,6 @@
 // functions are per particle and per node; the solver's step schedules them (MpmSolver).
 #pragma once
 
-#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -41,8 +40,8 @@ class CrackOpening {
     node_.resize(nodes);
   }
 
-  // The damage field: each particle's mass and damage d = 1 - strength left into colour c (1),
-  // then per node their mass-weighted mean (2).
+  // The damage field: each particle's mass and damage d = 1 - strength left into colour c, then
+  // per node their mass-weighted mean.
   template <class Kernel>
   void scatterDamage(const GridGeometry<D>& grid, const V& x, T mass, T damage, int c) {
     Partial& g = partial_[c];
@@ -61,9 +60,9 @@ class CrackOpening {
     node_.damage[k] = mass > 0 ? damage / mass : T(0);
   }
 
-  // Particle p's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p) (3), and the
-  // largest of them among the particles that reach each node, into colour c; per node, the
-  // largest over the colours (4), in colour order: ties keep the first.
+  // Particle p's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), and the
+  // largest of them among the particles that reach each node, into colour c; then per node, the
+  // largest over the colours in colour order (ties keep the first): its reference direction.
   template <class Kernel>
   void findGradient(const GridGeometry<D>& grid, const V& x, T inertia_inverse, int p, int c) {
     V sum = V::Zero();
@@ -112,7 +111,7 @@ class CrackOpening {
     return failed ? grains : int(gradient.dot(node_.reference[k]) < 0);
   }
 
-  // MLS's scatter (the solver's scatterParticle) with sides (5): node k of the stencil takes
+  // MLS's scatter (the solver's scatterParticle) with sides: node k of the stencil takes
   // w m and w (m v + A (x_i - x_p)) into its side, side 0 being mass0 and momentum0 (the solver's
   // partial grid of colour c); intact snow also adds w m (x_i - x_p) to its side's outward normal.
   template <class Kernel>
@@ -135,49 +134,49 @@ class CrackOpening {
     });
   }
 
-  // Node k after the solver updated its side 0 (v0 with gravity and collisions; mass0 its mass)
-  // (6): the other fields summed over the colours, their velocities with gravity and
-  // collide(v); then the two sides, where they approach each other, and the grains, where they
-  // move into either side, in contact with Coulomb friction.
+  // Node k once the solver has its side 0 (v0 with gravity, before collisions; mass0 its mass):
+  // the other fields summed over the colours with gravity; then the two sides, where they
+  // approach each other, and the grains, where they move into either side, in contact with
+  // Coulomb friction; last collide(v) on each field that has mass, so that no contact moves a
+  // field into a collider.
   template <class Collide>
   void updateNode(int k, T mass0, V& v0, T dt, const V& gravity, Collide&& collide) {
-    T m[3] = {mass0, 0, 0};
+    T mass[3] = {mass0, 0, 0};
+    V* velocity[3] = {&v0, &node_.velocity[0][k], &node_.velocity[1][k]};
     V normal[2] = {V::Zero(), V::Zero()};
-    for (int f = 1; f < 3; ++f) node_.velocity[f - 1][k].setZero();
+    for (int f = 1; f < 3; ++f) velocity[f]->setZero();
     for (Partial& g : partial_) {
       for (int f = 1; f < 3; ++f) {
-        m[f] += g.mass[f - 1][k];
-        node_.velocity[f - 1][k] += g.momentum[f - 1][k];
-        if (g.mass[f - 1][k] != 0) {
-          g.mass[f - 1][k] = 0;
-          g.momentum[f - 1][k].setZero();
+        T& m = g.mass[f - 1][k];  // the partial arrays hold fields 1 and 2 only
+        V& momentum = g.momentum[f - 1][k];
+        mass[f] += m;
+        *velocity[f] += momentum;
+        if (m != 0) {
+          m = 0;
+          momentum.setZero();
         }
       }
-      for (int s = 0; s < 2; ++s) {
-        normal[s] += g.normal[s][k];
-        if (!g.normal[s][k].isZero(0)) g.normal[s][k].setZero();
+      for (int side = 0; side < 2; ++side) {
+        normal[side] += g.normal[side][k];
+        if (!g.normal[side][k].isZero(0)) g.normal[side][k].setZero();
       }
     }
-    for (int f = 1; f < 3; ++f) {
-      V& v = node_.velocity[f - 1][k];
-      if (m[f] <= 0) {
-        v.setZero();
-        continue;
-      }
-      v = v / m[f] + dt * gravity;
-      collide(v);
-    }
-    V* v[3] = {&v0, &node_.velocity[0][k], &node_.velocity[1][k]};
+    for (int f = 1; f < 3; ++f)
+      *velocity[f] = mass[f] > 0 ? V(*velocity[f] / mass[f] + dt * gravity) : V::Zero();
     // Side 0 lies behind the reference direction r: the sides approach while (v0 - v1).r > 0.
     const V& r = node_.reference[k];
-    if (m[0] > 0 && m[1] > 0 && (v0 - *v[1]).dot(r) > 0) touch(m[0], v0, m[1], *v[1], r);
+    if (mass[0] > 0 && mass[1] > 0 && (v0 - *velocity[1]).dot(r) > 0)
+      touch(mass[0], v0, mass[1], *velocity[1], r);
     // The grains move into side s while (v_s - v_g).n_s > 0, n_s the side's outward normal.
-    for (int s = 0; s < 2; ++s)
-      if (m[grains] > 0 && m[s] > 0 && (*v[s] - *v[grains]).dot(normal[s]) > 0)
-        touch(m[s], *v[s], m[grains], *v[grains], normal[s]);
+    for (int side = 0; side < 2; ++side)
+      if (mass[grains] > 0 && mass[side] > 0 &&
+          (*velocity[side] - *velocity[grains]).dot(normal[side]) > 0)
+        touch(mass[side], *velocity[side], mass[grains], *velocity[grains], normal[side]);
+    for (int f = 0; f < 3; ++f)
+      if (mass[f] > 0) collide(*velocity[f]);
   }
 
-  // MLS's gather with sides (7): v_p = sum_i w v_i and B_p = sum_i w v_i (x_i - x_p)^T, each node's
+  // MLS's gather with sides: v_p = sum_i w v_i and B_p = sum_i w v_i (x_i - x_p)^T, each node's
   // v_i that of particle p's field there (side 0's from v0, the solver's grid).
   template <class Kernel>
   V gather(const GridGeometry<D>& grid, const V& x, int p, bool failed, const V* v0, M& B) const {
@@ -235,10 +234,9 @@ class CrackOpening {
   struct Nodes {
     ZeroPageVector<T> damage;
     ZeroPageVector<V> reference;
-    ZeroPageVector<T> mass[2];  // side 1, grains
-    ZeroPageVector<V> velocity[2];
+    ZeroPageVector<V> velocity[2];  // side 1, grains
     void resize(int nodes) {
-      for (auto* a : {&damage, &mass[0], &mass[1]}) a->resize(nodes);
+      damage.resize(nodes);
       for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
     }
   };

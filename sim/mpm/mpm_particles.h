@@ -21,7 +21,8 @@ struct MpmParticles : Particles<D, T> {
   std::vector<Symmetric<D, T>> tau;
   std::vector<T> J_P;        // det F_P, plastic volume ratio
   std::vector<Mat<D, T>> C;  // affine velocity (APIC/MLS), or grad v (PIC/FLIP)
-  std::vector<T> hardening;  // e^{xi (1 - J_P)}, bounded (eq. 8), refreshed with J_P
+  std::vector<T>
+      hardening;  // hardeningFactor: e^{xi (1 - J_P)} bounded (eq. 8), refreshed with J_P
   // Auto-sleep (mpm.auto_sleep): the steps in a row the particle and its stencil's nodes have
   // moved slower than the sleep speed; asleep once it reaches the sleep steps. Empty when off.
   std::vector<int> calm_steps;

@@ -217,12 +217,11 @@ void MpmSolver<D, T>::stepWithCracks(T dt) {
       else
         scatterParticleOn<MlsTransfer, Kernel>(isa, p, g, dt);
     });
-    // 4, 5: each field's velocity, gravity and collisions; then the fields meet where they
-    // approach.
+    // 4, 5: each field's velocity and gravity, the fields' contact where they approach, then
+    // the collisions.
     schedule_.updateNodes(fields_, [&](int k) {
       velocityFromMomentum<MlsTransfer>(k);
       accelerate<MlsTransfer>(k, dt);
-      collideNode(k);
       cracks.updateNode(k, fields_.mass[k], fields_.velocity[k], dt, gravity_,
                         [&](V& v) { collideAtNode(k, v); });
     });
@@ -232,6 +231,7 @@ void MpmSolver<D, T>::stepWithCracks(T dt) {
                                   moveParticles<MlsTransfer, Kernel>(batch, m, shares, dt, isa);
                                 });
   });
+  crack_step_ = false;  // a particle pass run alone (updateParticles) takes the plain gather
 }
 
 template <int D, class T>

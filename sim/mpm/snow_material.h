@@ -32,8 +32,9 @@ struct SnowMaterial {
   Real viscosity = 0;
   // Fracture strain eps_f: snow stretched past J_P = 1 keeps a share s = max(0, 1 - ln J_P / eps_f)
   // of its strength (its Lamé pair and its damper), none from ln J_P = eps_f on, where it has
-  // failed. 0: never (the paper's model). Crack softening of the kind later MPM fracture work uses
-  // (docs/snow-at-scale.md, "Letting the cracks open").
+  // failed. 0: never (the paper's model). The share scales the bounded hardening, so failing snow
+  // goes below hardening_min. Crack softening of the kind later MPM fracture work uses
+  // (docs/snow-at-scale.md, "Cracks that open in the solver").
   Real fracture_strain = 0;
 
   // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
@@ -42,8 +43,8 @@ struct SnowMaterial {
 };
 
 // Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 h, lambda = lambda0 h with the
-// hardening factor h = e^{xi (1 - J_P)} clamped to [hardening_min, hardening_max]), in the
-// precision T of the particle's state.
+// hardening factor h = e^{xi (1 - J_P)} clamped to [hardening_min, hardening_max], times the
+// strength left with a fracture strain), in the precision T of the particle's state.
 template <class T>
 struct LameOf {
   T mu;

@@ -227,6 +227,10 @@ class ParticleGridSchedule final : public LoopRunner {
     g.momentum.resize(grid_.nodeCount());
     if (force_field_) g.force.resize(grid_.nodeCount());
   }
+  // f(k) over the nodes the scatter may have reached, each part its lines; measure: record the
+  // parts' speeds, by which the lines are cut (the grid update's).
+  template <class F>
+  void overScatteredNodes(std::string_view stage, bool measure, F&& f);
   // Zero over the updated nodes: only a scatter no grid stage followed needs it.
   void emptyPartialGrids();
   void sumPartialGrids(int k, Fields& fields);
@@ -358,40 +362,36 @@ void ParticleGridSchedule<D, P>::scatterAlone(const std::vector<Position>& x, F&
 template <int D, class P>
 template <class F>
 void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f) {
-  const NodeBox<D>& box = binning_.updated();
-  // A part takes a run of consecutive lines of nodes along x, about those its thread scattered
-  // to, still in its cache. The lines are cut by this stage's own measured speeds, not at the
-  // rows of the scatter: a line whose partial grids the other thread wrote costs more.
-  const int width = box.hi[0] - box.lo[0];
-  const int lines = width > 0 ? box.count() / width : 0;
-  const StageClock::Scope time = timeStage("grid update");
-  team_.forEachPart("grid update", [&](int part) {
-    const auto start = parallel_ ? Clock::now() : Clock::time_point();
-    const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
-    for (int line = first; line < last; ++line)
-      binning_.forUpdatedRuns(line, [&](int k, int count) {
-        for (int i = 0; i < count; ++i) {  // x is the grid's contiguous axis
-          sumPartialGrids(k + i, fields);
-          f(k + i);
-        }
-      });
-    if (parallel_) line_shares_.record(part, last - first, secondsSince(start));
+  overScatteredNodes("grid update", true, [&](int k) {
+    sumPartialGrids(k, fields);
+    f(k);
   });
 }
 
 template <int D, class P>
 template <class F>
 void ParticleGridSchedule<D, P>::forScatteredNodes(std::string_view stage, F&& f) {
+  overScatteredNodes(stage, false, f);
+}
+
+template <int D, class P>
+template <class F>
+void ParticleGridSchedule<D, P>::overScatteredNodes(std::string_view stage, bool measure, F&& f) {
   const NodeBox<D>& box = binning_.updated();
+  // A part takes a run of consecutive lines of nodes along x, about those its thread scattered
+  // to, still in its cache. The lines are cut by the grid update's own measured speeds, not at
+  // the rows of the scatter: a line whose partial grids the other thread wrote costs more.
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
   const StageClock::Scope time = timeStage(stage);
   team_.forEachPart(stage, [&](int part) {
+    const auto start = parallel_ && measure ? Clock::now() : Clock::time_point();
     const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
     for (int line = first; line < last; ++line)
       binning_.forUpdatedRuns(line, [&](int k, int count) {
-        for (int i = 0; i < count; ++i) f(k + i);
+        for (int i = 0; i < count; ++i) f(k + i);  // x is the grid's contiguous axis
       });
+    if (parallel_ && measure) line_shares_.record(part, last - first, secondsSince(start));
   });
 }
 

@@ -96,7 +96,6 @@ TEST(CrackOpening, TheHalvesOfAShearedBarSlideAlongAFailedBand) {
     MpmSolver<2> s(bar.scene, bar.particles, 1);
     runFor(s, 0.02);
     const auto [below, above] = bar.halvesSpeeds(s);
-    std::printf("%s: %.4f %.4f\n", open ? "open" : "one velocity", below, above);
     if (open) {
       EXPECT_NEAR(below, -ShearedBar::speed, 0.01);
       EXPECT_NEAR(above, ShearedBar::speed, 0.01);

@@ -609,10 +609,13 @@ Scene parseScene(const Json& root, const std::string& file) {
     throw InputError(file +
                      ": material.viscosity runs only mpm.integrator \"explicit\" (the "
                      "semi-implicit solve has no damper in its stress differential); set it to 0");
-  if (s.mpm.open_cracks && !(s.material.fracture_strain > 0))
-    throw InputError(file +
-                     ": mpm.open_cracks needs material.fracture_strain > 0 (the strain at which "
-                     "snow fails and a crack can open)");
+  if (s.mpm.open_cracks && !(s.material.fracture_strain > 0)) {
+    FieldError e(file, "mpm.open_cracks",
+                 "needs material.fracture_strain > 0 (the strain at which snow fails and a "
+                 "crack can open)");
+    e.also = {"material.fracture_strain"};  // a --set of either is blamed
+    throw e;
+  }
   if (const Json* colliders = f.array("colliders", false))
     for (size_t i = 0; i < colliders->size(); ++i)
       s.colliders.push_back(parseCollider((*colliders)[i], static_cast<int>(i), s));

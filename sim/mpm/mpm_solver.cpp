@@ -195,7 +195,8 @@ void MpmSolver<D, T>::stepWithCracks(T dt) {
   CrackOpening<D, T>& cracks = *cracks_;
   schedule_.step(particles_, true, [&] {
     // The damage field, then each particle's damage gradient and each node's reference
-    // direction, which decide the sides of the scatter and the gather.
+    // direction, which decide the sides of the scatter and the gather. The stages named
+    // "crack: ..." tell the cost estimate (app/cost_estimate.cpp) that these passes ran.
     schedule_.scatter(
         [&](int p, PartialGrid& g) {
           cracks.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],

@@ -105,6 +105,21 @@ TEST(CrackOpening, TheHalvesOfAShearedBarSlideAlongAFailedBand) {
   }
 }
 
+// A 2D snapshot's node densities (density cells, the PLY's node element) hold the mass of every
+// field: the grid's own holds side 0's only near an open crack.
+TEST(CrackOpening, SnapshotNodeMassHoldsEveryField) {
+  ShearedBar bar(true);
+  MpmSolver<2> s(bar.scene, bar.particles, 1);
+  runFor(s, 0.005);
+  Snapshot snapshot;
+  s.describe(snapshot);
+  Real mass = 0, node_mass = 0;
+  for (const Real m : s.particles().mass) mass += m;
+  const Real area = bar.scene.cell_size * bar.scene.cell_size;
+  for (const float d : snapshot.grid.node_density) node_mass += d * area;
+  EXPECT_NEAR(node_mass, mass, 1e-6 * mass);
+}
+
 // Each particle scatters to and gathers from one field of each node, so the particles' momentum
 // is the grid's and the grid's the particles': two balls that collide and break keep their total
 // momentum to round-off.

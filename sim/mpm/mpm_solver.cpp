@@ -891,24 +891,22 @@ void MpmSolver<D, T>::describe(Snapshot& snapshot) const {
     snapshot.plastic_j[id] = static_cast<float>(particles.J_P[p]);
   }
   const Real area = grid_.h * grid_.h;
-  if constexpr (D == 2) {
-    // Near an open crack the grid's own mass is side 0's alone: every field's is scattered again.
-    if (cracks_) {
-      std::vector<T> mass(grid_.nodeCount());
-      withKernel(params_.kernel, [&]<class Kernel>() {
-        for (int p = 0; p < particles_.size(); ++p)
-          forEachStencilNode<D, Kernel>(grid_, particles_.x[p], [&](int k, T w, const V&) {
-            mass[k] += w * particles_.mass[p];
-          });
-      });
-      domainNodeValues(
-          grid_, [&](int k) { return mass[k] / area; }, snapshot.grid.node_density);
-      return;  // one process: open cracks refuse MPI
-    }
+  if (D == 2 && cracks_) {
+    // Near an open crack the grid's own mass is side 0's alone: every field's is scattered again,
+    // from the particles where they are now. One process: open cracks refuse MPI.
+    std::vector<T> mass(grid_.nodeCount());
+    withKernel(params_.kernel, [&]<class Kernel>() {
+      for (int p = 0; p < n; ++p)
+        forEachStencilNode<D, Kernel>(
+            grid_, particles.x[p], [&](int k, T w, const V&) { mass[k] += w * particles.mass[p]; });
+    });
+    domainNodeValues(
+        grid_, [&](int k) { return mass[k] / area; }, snapshot.grid.node_density);
+  } else {
+    domainNodeValues(
+        grid_, [&](int k) { return fields_.mass[k] / area; }, snapshot.grid.node_density);
+    slabs_.combineNodeValues(snapshot.grid.node_density);
   }
-  domainNodeValues(
-      grid_, [&](int k) { return fields_.mass[k] / area; }, snapshot.grid.node_density);
-  slabs_.combineNodeValues(snapshot.grid.node_density);
 }
 
 template <int D, class T>

@@ -26,6 +26,15 @@ std::string inUnits(double value, std::initializer_list<Unit> units) {
   return text;
 }
 
+// The time the steps so far spent in the passes of cracks that open (the solver's stages
+// "crack: ...").
+double crackSeconds(const Simulation& simulation) {
+  double seconds = 0;
+  for (const StageSeconds& s : simulation.stepStages())
+    if (s.stage.starts_with("crack:")) seconds += s.seconds;
+  return seconds;
+}
+
 }  // namespace
 
 std::string roughCount(double count) {
@@ -73,19 +82,6 @@ std::string CostEstimate::before() const {
                 roughCount(stepCount()).c_str(), roughCount(particle_steps_).c_str());
   return name_ + text;
 }
-
-namespace {
-
-// The time the steps so far spent in the passes of cracks that open (the solver's stages
-// "crack: ...").
-double crackSeconds(const Simulation& simulation) {
-  double seconds = 0;
-  for (const StageSeconds& s : simulation.stepStages())
-    if (s.stage.starts_with("crack:")) seconds += s.seconds;
-  return seconds;
-}
-
-}  // namespace
 
 std::string CostEstimate::afterStep(const Simulation& simulation) {
   if (said_) return "";

@@ -25,7 +25,6 @@
 #include "render/colour.h"
 #include "render/image.h"
 #include "render/scene_render.h"
-#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/geometry/level_set.h"
@@ -34,6 +33,7 @@
 #include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/simulation.h"
 #include "version.h"
 

@@ -16,11 +16,9 @@
 #include "app/interrupt.h"
 #include "app/options.h"
 #include "app/progress.h"
-#include "app/quality.h"
 #include "app/render_sink.h"
 #include "app/run_checkpoint.h"
 #include "app/run_directory.h"
-#include "app/scale.h"
 #include "app/step_watch.h"
 #include "render/colour.h"
 #include "render/image.h"
@@ -32,6 +30,7 @@
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
+#include "sim/scene/resolve_scene.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene_colliders.h"
 #include "sim/simulation.h"
@@ -45,8 +44,8 @@ struct RunOptions {
   std::string scene;
   std::string out = "out";
   std::vector<std::string> overrides;
-  std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
-  double scale = 1;     // resolution factor (app/scale.h)
+  std::string quality;  // draft | figure | reference (sim/scene/quality.h); empty: as written
+  double scale = 1;     // resolution factor (sim/scene/scale.h)
   bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   std::string precision;       // double | float: mpm.precision; empty: the scene's
@@ -240,15 +239,10 @@ void recordRendering(nlohmann::json& summary, const RenderSettings& render, cons
 }
 
 Scene resolvedScene(const RunOptions& options) {
-  // Read and checked once, with the user's --set; the quality level (for the scene's solver and
-  // dimension) then leaves alone what --set gave.
-  checkQualityLevel(options.quality);
-  std::vector<std::string> overrides = options.overrides;
-  if (!options.precision.empty()) overrides.push_back("mpm.precision=" + options.precision);
-  Scene scene = loadScene(options.scene, overrides);
-  applyQuality(options.quality, overrides, scene);
-  if (options.scale != 1) applyScale(options.scale, overrides, scene);
-  return scene;
+  SceneOverrides overrides{options.overrides, options.quality, options.scale};
+  if (!options.precision.empty())
+    overrides.assignments.push_back("mpm.precision=" + options.precision);
+  return resolveScene(options.scene, overrides);
 }
 
 // The frames an interrupted run wrote, into the video anew: a resumed run's MP4 holds each frame

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "sim/core/collider.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 
 namespace snowsim {

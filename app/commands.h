@@ -8,6 +8,9 @@
 
 namespace snowsim {
 
+// snowsim's command line: parses it, runs the command chosen and returns the exit code.
+int runCommandLine(int argc, char** argv);
+
 void addRunCommand(CLI::App& app);
 void addResumeCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);

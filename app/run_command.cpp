@@ -16,16 +16,13 @@
 #include "app/interrupt.h"
 #include "app/options.h"
 #include "app/progress.h"
-#include "app/quality.h"
 #include "app/render_sink.h"
 #include "app/run_checkpoint.h"
 #include "app/run_directory.h"
-#include "app/scale.h"
 #include "app/step_watch.h"
 #include "render/colour.h"
 #include "render/image.h"
 #include "render/scene_render.h"
-#include "sim/core/collider.h"
 #include "sim/core/errors.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/geometry/level_set.h"
@@ -33,7 +30,9 @@
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
+#include "sim/scene/resolve_scene.h"
 #include "sim/scene/sampling.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/simulation.h"
 #include "version.h"
 
@@ -45,8 +44,8 @@ struct RunOptions {
   std::string scene;
   std::string out = "out";
   std::vector<std::string> overrides;
-  std::string quality;  // draft | figure | reference (app/quality.h); empty: the scene as written
-  double scale = 1;     // resolution factor (app/scale.h)
+  std::string quality;  // draft | figure | reference (sim/scene/quality.h); empty: as written
+  double scale = 1;     // resolution factor (sim/scene/scale.h)
   bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   std::string precision;       // double | float: mpm.precision; empty: the scene's
@@ -240,15 +239,10 @@ void recordRendering(nlohmann::json& summary, const RenderSettings& render, cons
 }
 
 Scene resolvedScene(const RunOptions& options) {
-  // Read and checked once, with the user's --set; the quality level (for the scene's solver and
-  // dimension) then leaves alone what --set gave.
-  checkQualityLevel(options.quality);
-  std::vector<std::string> overrides = options.overrides;
-  if (!options.precision.empty()) overrides.push_back("mpm.precision=" + options.precision);
-  Scene scene = loadScene(options.scene, overrides);
-  applyQuality(options.quality, overrides, scene);
-  if (options.scale != 1) applyScale(options.scale, overrides, scene);
-  return scene;
+  SceneOverrides overrides{options.overrides, options.quality, options.scale};
+  if (!options.precision.empty())
+    overrides.assignments.push_back("mpm.precision=" + options.precision);
+  return resolveScene(options.scene, overrides);
 }
 
 // The frames an interrupted run wrote, into the video anew: a resumed run's MP4 holds each frame
@@ -286,7 +280,6 @@ void checkRanksOf(const SavedRun& saved, int ranks) {
                    " (not " + across + ")");
 }
 
-// run, or resume from `saved` (the scene and state of a checkpoint of options.out).
 // The scene as every rank read it: a rank that could not read it (no shared file system) refuses
 // the run on every rank, with its message.
 Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
@@ -305,6 +298,260 @@ Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
   return scene;
 }
 
+// What a session of a run is asked for, checked before anything is written.
+struct RunPlan {
+  Scene scene;
+  SessionTimes earlier;  // the sessions before a resume
+  RenderSettings render;
+  VideoSettings video;
+  UpAxis up = UpAxis::Y;
+  std::string video_name;      // SCENE_NAME.mp4
+  std::string resume_command;  // what continues the run when it stops short
+  int first_frame = 0;         // the first frame this session writes
+};
+
+// The scene and every setting, checked before anything is written, with the warnings they call
+// for.
+RunPlan validatedRun(const RunOptions& options, const SavedRun* saved, RankExchange& world,
+                     bool writes) {
+  RunPlan plan;
+  plan.scene =
+      saved ? saved->scene
+            : (world.ranks() > 1 ? sceneOnEveryRank(options, world) : resolvedScene(options));
+  const Scene& scene = plan.scene;
+  plan.earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
+  if (saved) checkRanksOf(*saved, world.ranks());
+  refuseWhatIsNotDistributed(scene, world.ranks());
+  refuseBodiesNarrowerThanTheirParticles(scene);
+  plan.render = options.render.settings(renderSettingsFromScene(scene.render));
+  if (writes) options.render.warnAboutUnused(scene.dimension);
+  if (plan.render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
+      (options.render.png || options.render.mp4))
+    throw InputError("--color-by plastic: " + scene.file +
+                     " runs the report's method, which has no plastic compression; allowed: "
+                     "white, density, speed (or --set solver=mpm)");
+  plan.video = options.render.videoSettings(scene.fps, plan.render.width, plan.render.height);
+  if (options.vdb && scene.dimension != 3)
+    throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
+  plan.up = options.z_up ? UpAxis::Z : UpAxis::Y;
+  warnOfCoarseMeshColliders(scene);
+  warnOfCollidersOutsideTheGrid(scene);
+  return plan;
+}
+
+// A resumed run's checks: its video's first frames are rebuilt from the frames written before
+// the checkpoint, which must be there. Sets where the run goes on from.
+void checkResumable(const RunOptions& options, SavedRun& saved, RunPlan& plan) {
+  if (options.render.mp4 && !options.render.png && !options.ply)
+    throw InputError(saved.file +
+                     ": the run writes an MP4 but neither PNG nor PLY frames, from which resume "
+                     "would rebuild the video's first frames; `" +
+                     plan.resume_command + "` continues it without the video");
+  plan.first_frame = saved.run_state["next_frame"].get<int>();
+  if (!options.render.mp4) return;
+  for (int frame = 0; frame < plan.first_frame; ++frame) {
+    const std::string path = framePath(options.out, frame, options.render.png ? "png" : "ply");
+    if (!std::filesystem::exists(path))
+      throw InputError(path + ": missing, and the video's first frames are " +
+                       "rebuilt from it; `" + plan.resume_command +
+                       " --no-mp4` continues the run without the video");
+  }
+}
+
+// Rank 0 handles the output directory, the others wait for its verdict.
+template <class Handle>
+void onTheOutputDirectory(RankExchange& world, bool writes, Handle&& handle) {
+  std::string refused;
+  if (writes) try {
+      handle();
+    } catch (const std::exception& e) {  // a file system error too
+      refused = e.what();
+    }
+  if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
+}
+
+// The output directory made and locked until the run ends; one holding an earlier run is
+// refused unless the run resumes or overwrites it.
+void prepareOutput(const RunOptions& options, bool resumed, const std::string& video_name,
+                   RankExchange& world, bool writes, std::optional<RunDirectoryLock>& lock) {
+  onTheOutputDirectory(world, writes, [&] {
+    prepareOutputDirectory(options.out);
+    lock.emplace(options.out);
+    if (!resumed && !options.overwrite) refuseEarlierRun(options.out, video_name);
+  });
+}
+
+// Every rank samples every body, so a body that fills no particle is refused alike, before
+// --overwrite removes an earlier run.
+std::unique_ptr<Simulation> setUpSimulation(const RunOptions& options, const RunPlan& plan,
+                                            bool resumed, RankExchange& world, bool writes,
+                                            StageClock& clock) {
+  const StageClock::Scope time(&clock, "setup");
+  std::unique_ptr<Simulation> simulation = makeSimulation(plan.scene, options.threads, world);
+  if (!resumed && options.overwrite)
+    onTheOutputDirectory(world, writes, [&] { removeEarlierRun(options.out, plan.video_name); });
+  return simulation;
+}
+
+// Where rank 0 writes each frame: PLY, VDB, and the renderer's PNG frames and video (into which
+// a resumed run's earlier frames go first).
+FrameSinks frameSinks(const RunOptions& options, const RunPlan& plan, StageClock& clock) {
+  FrameSinks sinks;
+  if (options.ply)
+    sinks.push_back(
+        std::make_unique<FileSink>(options.out, "ply", writePly, plan.up, "write PLY", clock));
+  if (options.vdb)
+    sinks.push_back(
+        std::make_unique<FileSink>(options.out, "vdb", writeVdb, plan.up, "write VDB", clock));
+  if (options.render.png || options.render.mp4) {
+    auto render_sink = std::make_unique<RenderSink>(
+        plan.render, options.render.png ? options.out : "",
+        options.render.mp4 ? options.out + "/" + plan.video_name : "", plan.video, &clock);
+    if (options.render.mp4)
+      replayFrames(options.out, plan.first_frame, options.render.png, plan.scene, *render_sink);
+    sinks.push_back(std::move(render_sink));
+  }
+  return sinks;
+}
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// A session's frames: steps to each frame and hands it to every sink, checkpoints at the
+// cadence, and stops at the end of the step in which a signal comes (the frame it interrupts is
+// not written, every earlier one is complete). Every rank stops at the same step, whichever got
+// the signal.
+class FrameLoop {
+ public:
+  FrameLoop(const RunOptions& options, const RunPlan& plan, const SavedRun* saved,
+            Simulation& simulation, StageClock& clock, RankExchange& world, bool writes,
+            std::chrono::steady_clock::time_point start)
+      : options_(options),
+        plan_(plan),
+        simulation_(simulation),
+        clock_(clock),
+        world_(world),
+        writes_(writes),
+        start_(start),
+        frames_(plan.scene.frameCount()),
+        progress_(frames_, plan.scene.duration, isatty(STDERR_FILENO)),
+        start_limit_(simulation.stepLimit()),
+        estimate_(
+            plan.scene, simulation.particleCount(), start_limit_,
+            saved ? std::optional<CostEstimate::Resumed>({simulation.time(), simulation.steps()})
+                  : std::nullopt),
+        step_watch_(saved ? StepWatch(plan.scene, saved->run_state.at("step_watch"))
+                          : StepWatch(plan.scene, estimate_.initialStep(), start_limit_)),
+        cadence_(options.checkpoint_every.value_or(
+                     plan.scene.output.checkpoint_every_frames.value_or(0)),
+                 options.checkpoint_minutes.value_or(
+                     plan.scene.output.checkpoint_minutes.value_or(kDefaultCheckpointMinutes))) {
+    if (saved) progress_.resumedAt(simulation);
+  }
+
+  // Returns the frames written, those of the sessions before included.
+  int run(FrameSinks& sinks) {
+    announce();
+    int written = plan_.first_frame;
+    int frame = plan_.first_frame;
+    const auto betweenSteps = [this] { return this->betweenSteps(); };
+    for (; frame <= frames_ && !interrupted(); ++frame, ++written) {
+      if (!simulation_.advanceTo(std::min(plan_.scene.duration, frame / plan_.scene.fps),
+                                 betweenSteps))
+        break;
+      Snapshot snapshot;
+      {
+        const StageClock::Scope time(&clock_, "snapshot");
+        snapshot = simulation_.snapshot(frame);
+      }
+      for (auto& sink : sinks) sink->write(snapshot);
+      progress_.frame(frame, simulation_);
+      if (frame < frames_ && cadence_.due(written + 1)) {
+        for (auto& sink : sinks) sink->flush();  // a checkpoint follows only complete frames
+        checkpoint(frame + 1);
+      }
+    }
+    for (auto& sink : sinks) sink->finish();
+    // Stopped short: the state after the last step, from which resume lands on the same steps.
+    if (written <= frames_)
+      checkpoint(frame);
+    else if (writes_)
+      removeCheckpoints(options_.out);
+    progress_.done();
+    return written;
+  }
+
+  int frames() const { return frames_; }
+  int stopSignal() const { return stop_signal_; }
+  const StepWatch& stepWatch() const { return step_watch_; }
+
+ private:
+  void announce() {
+    progress_.note(estimate_.before());
+    if (world_.ranks() == 1) return;
+    progress_.note(plan_.scene.name + ": split across " + std::to_string(world_.ranks()) +
+                   " MPI ranks, rank 0 writing the output");
+    if (mpirunMayKillTheCheckpoint())
+      progress_.note(
+          "snowsim: warning: stopped, mpirun kills the ranks 1 s after passing the stop on, "
+          "likely before they write their checkpoint; launch it with --mca "
+          "odls_base_sigkill_timeout 15 (seconds, a little more than a checkpoint takes) so "
+          "that a stopped run can be resumed (docs/scale-out.md)");
+  }
+
+  bool interrupted() {
+    stop_signal_ = static_cast<int>(world_.maxOverRanks(interruptSignal()));
+    return stop_signal_ != 0;
+  }
+
+  bool betweenSteps() {
+    for (const std::string& note :
+         {estimate_.afterStep(simulation_), step_watch_.check(simulation_)})
+      if (!note.empty()) progress_.note(note);
+    progress_.step(simulation_);
+    return interrupted();
+  }
+
+  // The run's own state beside the solver's; next_frame: the first frame not yet written.
+  void checkpoint(int next_frame) {
+    const StageClock::Scope time(&clock_, "checkpoint");
+    const SessionTimes& earlier = plan_.earlier;
+    nlohmann::json state = {{"args", options_.args},
+                            {"next_frame", next_frame},
+                            {"step_watch", step_watch_.state()},
+                            {"ranks", world_.ranks()}};
+    state["earlier_sessions"] =
+        SessionTimes{earlier.sessions + 1, earlier.wall + secondsSince(start_),
+                     stageTimes(simulation_, clock_, earlier.stages)}
+            .toJson();
+    recordRendering(state, plan_.render, plan_.scene);
+    if (writes_) {
+      saveCheckpoint(options_.out, plan_.scene, simulation_, state, world_.ranks() > 1);
+    } else {
+      StateWriter rank_share([](const char*, std::size_t) {});  // which rank 0 gathers
+      simulation_.saveState(rank_share);
+    }
+  }
+
+  const RunOptions& options_;
+  const RunPlan& plan_;
+  Simulation& simulation_;
+  StageClock& clock_;
+  RankExchange& world_;
+  const bool writes_;
+  const std::chrono::steady_clock::time_point start_;
+  const int frames_;
+  Progress progress_;
+  const StepLimit start_limit_;
+  CostEstimate estimate_;
+  StepWatch step_watch_;
+  CheckpointCadence cadence_;
+  int stop_signal_ = 0;
+};
+
+// run, or resume from `saved` (the scene and state of a checkpoint of options.out): validate,
+// prepare the output, set up the simulation and the sinks, run the frames, record the run.
 // alike: set false once an error could be one rank's alone; until then an InputError is met by
 // every rank at the same point (the scene, the settings, the output directory's agreed refusal,
 // the solver's set-up, the agreed removal of an earlier run).
@@ -317,193 +564,50 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
     alike = false;
     throw InputError("no /dev/null");
   }
-  Scene scene =
-      saved ? saved->scene
-            : (world.ranks() > 1 ? sceneOnEveryRank(options, world) : resolvedScene(options));
-  const SessionTimes earlier = saved ? SessionTimes::from(*saved) : SessionTimes{};
-  if (saved) checkRanksOf(*saved, world.ranks());
-  refuseWhatIsNotDistributed(scene, world.ranks());
-  refuseBodiesNarrowerThanTheirParticles(scene);
-  // Every setting is checked before anything is written.
-  RenderSettings render = options.render.settings(renderSettingsFromScene(scene.render));
-  if (writes) options.render.warnAboutUnused(scene.dimension);
-  if (render.color_by == ColorBy::Plastic && scene.solver != SolverType::Mpm &&
-      (options.render.png || options.render.mp4))
-    throw InputError("--color-by plastic: " + scene.file +
-                     " runs the report's method, which has no plastic compression; allowed: "
-                     "white, density, speed (or --set solver=mpm)");
-  const VideoSettings video = options.render.videoSettings(scene.fps, render.width, render.height);
-  if (options.vdb && scene.dimension != 3)
-    throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
-  const UpAxis up = options.z_up ? UpAxis::Z : UpAxis::Y;
-  warnOfCoarseMeshColliders(scene);
-  warnOfCollidersOutsideTheGrid(scene);
+  RunPlan plan = validatedRun(options, saved, world, writes);
+  const Scene& scene = plan.scene;
   if (options.estimate_only) {
     alike = false;  // it steps
     return estimateOnly(scene, options.threads, world);
   }
-  const std::string video_name = scene.name + ".mp4";
-  const std::string resume_command =
+  plan.video_name = scene.name + ".mp4";
+  plan.resume_command =
       (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " " : std::string()) +
       "snowsim resume " + options.out +
       (options.render.mp4 && !options.render.png && !options.ply ? " --no-mp4" : "");
-  if (saved && options.render.mp4 && !options.render.png && !options.ply)
-    throw InputError(saved->file +
-                     ": the run writes an MP4 but neither PNG nor PLY frames, from which resume "
-                     "would rebuild the video's first frames; `" +
-                     resume_command + "` continues it without the video");
-  const int first_frame = saved ? saved->run_state["next_frame"].get<int>() : 0;
-  if (saved && options.render.mp4)  // the frames the video's start is rebuilt from
-    for (int frame = 0; frame < first_frame; ++frame) {
-      const std::string path = framePath(options.out, frame, options.render.png ? "png" : "ply");
-      if (!std::filesystem::exists(path))
-        throw InputError(path + ": missing, and the video's first frames are " +
-                         "rebuilt from it; `" + resume_command +
-                         " --no-mp4` continues the run without the video");
-    }
-  // Rank 0 handles the output directory, the others wait for its verdict.
-  const auto onTheOutputDirectory = [&](auto&& handle) {
-    std::string refused;
-    if (writes) try {
-        handle();
-      } catch (const std::exception& e) {  // a file system error too
-        refused = e.what();
-      }
-    if (world.maxOverRanks(refused.empty() ? 0 : 1) != 0) throw InputError(refused);
-  };
+  if (saved) checkResumable(options, *saved, plan);
   std::optional<RunDirectoryLock> lock;  // held until the run ends
-  onTheOutputDirectory([&] {
-    prepareOutputDirectory(options.out);
-    lock.emplace(options.out);
-    if (!saved && !options.overwrite) refuseEarlierRun(options.out, video_name);
-  });
+  prepareOutput(options, saved != nullptr, plan.video_name, world, writes, lock);
   const auto start = std::chrono::steady_clock::now();
-  const auto wallTime = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
   StageClock clock;  // this thread's stages; the solver times its own
-  std::unique_ptr<Simulation> simulation;
-  {
-    // Every rank samples every body, so a body that fills no particle is refused alike, before
-    // --overwrite removes an earlier run.
-    const StageClock::Scope time(&clock, "setup");
-    simulation = makeSimulation(scene, options.threads, world);
-    if (!saved && options.overwrite)
-      onTheOutputDirectory([&] { removeEarlierRun(options.out, video_name); });
-  }
+  const std::unique_ptr<Simulation> simulation =
+      setUpSimulation(options, plan, saved != nullptr, world, writes, clock);
   FrameSinks sinks;
   {
     const StageClock::Scope time(&clock, "setup");
     alike = false;  // each rank reads its share of a checkpoint; rank 0 alone opens the outputs
     // From the initial state, resumed or not. Every rank takes part in the snapshot's gather;
     // only rank 0, which draws, gets the particles.
-    fitToScene(render, scene, simulation->snapshot(0));
+    fitToScene(plan.render, scene, simulation->snapshot(0));
     if (saved) {
       simulation->loadState(saved->solver_state, saved->file);
       std::string().swap(saved->solver_state);  // as large as the state: not kept for the run
     }
-    if (options.ply && writes)
-      sinks.push_back(
-          std::make_unique<FileSink>(options.out, "ply", writePly, up, "write PLY", clock));
-    if (options.vdb && writes)
-      sinks.push_back(
-          std::make_unique<FileSink>(options.out, "vdb", writeVdb, up, "write VDB", clock));
-    if ((options.render.png || options.render.mp4) && writes) {
-      auto render_sink = std::make_unique<RenderSink>(
-          render, options.render.png ? options.out : "",
-          options.render.mp4 ? options.out + "/" + video_name : "", video, &clock);
-      if (options.render.mp4)
-        replayFrames(options.out, first_frame, options.render.png, scene, *render_sink);
-      sinks.push_back(std::move(render_sink));
-    }
+    if (writes) sinks = frameSinks(options, plan, clock);
   }
   // A second signal ends the run at once: the unfinished video goes with it.
   std::optional<UnfinishedFile> partial_video;
-  if (options.render.mp4 && writes) partial_video.emplace(options.out + "/" + video_name + ".part");
+  if (options.render.mp4 && writes)
+    partial_video.emplace(options.out + "/" + plan.video_name + ".part");
 
   catchInterrupts();
-  const int frames = scene.frameCount();
-  Progress progress(frames, scene.duration, isatty(STDERR_FILENO));
-  if (saved) progress.resumedAt(*simulation);
-  const StepLimit start_limit = simulation->stepLimit();
-  CostEstimate estimate(
-      scene, simulation->particleCount(), start_limit,
-      saved ? std::optional<CostEstimate::Resumed>({simulation->time(), simulation->steps()})
-            : std::nullopt);
-  StepWatch step_watch = saved ? StepWatch(scene, saved->run_state.at("step_watch"))
-                               : StepWatch(scene, estimate.initialStep(), start_limit);
-  progress.note(estimate.before());
-  if (world.ranks() > 1) {
-    progress.note(scene.name + ": split across " + std::to_string(world.ranks()) +
-                  " MPI ranks, rank 0 writing the output");
-    if (mpirunMayKillTheCheckpoint())
-      progress.note(
-          "snowsim: warning: stopped, mpirun kills the ranks 1 s after passing the stop on, "
-          "likely before they write their checkpoint; launch it with --mca "
-          "odls_base_sigkill_timeout 15 (seconds, a little more than a checkpoint takes) so "
-          "that a stopped run can be resumed (docs/scale-out.md)");
-  }
-  int written = first_frame;
-  // The run's own state beside the solver's; next_frame: the first frame not yet written.
-  CheckpointCadence cadence(
-      options.checkpoint_every.value_or(scene.output.checkpoint_every_frames.value_or(0)),
-      options.checkpoint_minutes.value_or(
-          scene.output.checkpoint_minutes.value_or(kDefaultCheckpointMinutes)));
-  const auto checkpoint = [&](int next_frame) {
-    const StageClock::Scope time(&clock, "checkpoint");
-    nlohmann::json state = {{"args", options.args},
-                            {"next_frame", next_frame},
-                            {"step_watch", step_watch.state()},
-                            {"ranks", world.ranks()}};
-    state["earlier_sessions"] = SessionTimes{earlier.sessions + 1, earlier.wall + wallTime(),
-                                             stageTimes(*simulation, clock, earlier.stages)}
-                                    .toJson();
-    recordRendering(state, render, scene);
-    if (writes) {
-      saveCheckpoint(options.out, scene, *simulation, state, world.ranks() > 1);
-    } else {
-      StateWriter rank_share([](const char*, std::size_t) {});  // which rank 0 gathers
-      simulation->saveState(rank_share);
-    }
-  };
-  // A signal stops the run at the end of the current step: the frame it interrupts is not
-  // written, every earlier one is complete. Every rank stops at the same step, whichever got it.
-  int stop_signal = 0;
-  const auto interrupted = [&] {
-    stop_signal = static_cast<int>(world.maxOverRanks(interruptSignal()));
-    return stop_signal != 0;
-  };
-  const auto betweenSteps = [&] {
-    for (const std::string& note : {estimate.afterStep(*simulation), step_watch.check(*simulation)})
-      if (!note.empty()) progress.note(note);
-    progress.step(*simulation);
-    return interrupted();
-  };
-  int frame = first_frame;
-  for (; frame <= frames && !interrupted(); ++frame, ++written) {
-    if (!simulation->advanceTo(std::min(scene.duration, frame / scene.fps), betweenSteps)) break;
-    Snapshot snapshot;
-    {
-      const StageClock::Scope time(&clock, "snapshot");
-      snapshot = simulation->snapshot(frame);
-    }
-    for (auto& sink : sinks) sink->write(snapshot);
-    progress.frame(frame, *simulation);
-    if (frame < frames && cadence.due(written + 1)) {
-      for (auto& sink : sinks) sink->flush();  // a checkpoint follows only complete frames
-      checkpoint(frame + 1);
-    }
-  }
-  for (auto& sink : sinks) sink->finish();
-  // Stopped short: the state after the last step, from which resume lands on the same steps.
-  if (written <= frames)
-    checkpoint(frame);
-  else if (writes)
-    removeCheckpoints(options.out);
-  progress.done();
+  FrameLoop loop(options, plan, saved, *simulation, clock, world, writes, start);
+  const int written = loop.run(sinks);
+  const int stop_signal = loop.stopSignal();
+  const SessionTimes& earlier = plan.earlier;
   // A resumed run's times and step statistics are of all its sessions (the solver's state
   // carries the steps, their sizes and the solves on).
-  const double wall = earlier.wall + wallTime();
+  const double wall = earlier.wall + secondsSince(start);
   nlohmann::json stages = stageTimes(*simulation, clock, earlier.stages);
   for (nlohmann::json& stage : stages) stage["share"] = stage["seconds"].get<double>() / wall;
 
@@ -522,7 +626,7 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   summary["up_axis"] = options.z_up ? "z" : "y";
   if (options.vdb) summary["vdb"] = true;
   if (saved) {
-    summary["resumed_at_frame"] = first_frame;
+    summary["resumed_at_frame"] = plan.first_frame;
     summary["sessions"] = earlier.sessions + 1;
   }
   if (simulation->steps() > 0)
@@ -545,9 +649,9 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
     summary["auto_sleep"] = {
         {"asleep_share_of_particle_steps", double(sleep.asleep_steps) / sleep.particle_steps},
         {"asleep_share_at_end", double(sleep.asleep_now) / sleep.particles}};
-  if (!step_watch.record().is_null()) summary["step_collapse"] = step_watch.record();
-  recordRendering(summary, render, scene);
-  if (options.render.mp4) summary["video"] = video_name;
+  if (!loop.stepWatch().record().is_null()) summary["step_collapse"] = loop.stepWatch().record();
+  recordRendering(summary, plan.render, scene);
+  if (options.render.mp4) summary["video"] = plan.video_name;
   // What reproduces the run: the scene as run, how it was asked for, by which build.
   summary["resolved_scene"] = sceneToJson(scene);
   summary["overrides"] = options.overrides;
@@ -562,9 +666,9 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   if (writes) writeFileAtomically(options.out + "/run.json", summary.dump(2) + "\n");
   if (stop_signal)
     throw Interrupted(stop_signal, "interrupted after " + std::to_string(written) + " of " +
-                                       std::to_string(frames + 1) +
-                                       " frames; what was written is complete; " + resume_command +
-                                       " continues it");
+                                       std::to_string(loop.frames() + 1) +
+                                       " frames; what was written is complete; " +
+                                       plan.resume_command + " continues it");
 }
 
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "sim/core/collider.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/mpm/mpm_solver.h"
 #include "sim/report/density_hybrid.h"

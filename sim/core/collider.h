@@ -7,11 +7,10 @@
 #include <memory>
 #include <vector>
 
+#include "sim/core/collider_kind.h"
 #include "sim/core/math.h"
 #include "sim/core/rigid_motion.h"
-#include "sim/core/snapshot.h"
 #include "sim/geometry/level_set.h"
-#include "sim/scene/scene.h"
 
 namespace snowsim {
 
@@ -76,7 +75,7 @@ Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin)
 template <int D>
 Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<D>& x, Vec<D>& v);
 
-// Places every collider that moves at `time` (s); the others stay where makeColliders put them.
+// Places every collider that moves at `time` (s); the others stay where they were made.
 template <int D>
 void placeColliders(std::vector<Collider<D>>& colliders, Real time);
 
@@ -84,19 +83,5 @@ void placeColliders(std::vector<Collider<D>>& colliders, Real time);
 // must not cross a cell in a step unseen by the grid.
 template <int D>
 Real fastestColliderSpeed(const std::vector<Collider<D>>& colliders, Real domain_diagonal);
-
-// The 2D walls of the domain box [0, extent] as half spaces, plus the scene's colliders. The walls
-// along a 2D scene's extruded z axis are frictionless slip walls, so a slab behaves like 2D.
-template <int D>
-std::vector<Collider<D>> makeColliders(const Scene& scene);
-
-// The voxel side (m) of a mesh collider's distance field: half a cell, or coarser when the mesh's
-// box would need more than LevelSet::kMaxVoxels voxels at that size.
-double meshColliderVoxel(const Scene& scene, const ColliderParams& collider);
-
-// The scene's colliders (not the domain walls) at `time` seconds, as a snapshot carries them for
-// drawing: in 3D coordinates, a 2D scene's collider extruded through the slab of a 3D run (and
-// at z = 0 in a 2D one).
-std::vector<SnapshotCollider> collidersAt(const Scene& scene, int dimension, double time);
 
 }  // namespace snowsim

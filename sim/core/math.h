@@ -9,6 +9,9 @@ namespace snowsim {
 
 using Real = double;
 
+// A point or vector as a scene describes it: x, y and z whatever the dimension (z unused in 2D).
+using Vec3 = std::array<double, 3>;
+
 // T: the scalar of a state kept in single precision (MPM's mpm.precision), double elsewhere.
 template <int D, class T = Real>
 using Vec = Eigen::Matrix<T, D, 1>;

@@ -38,15 +38,15 @@ Eigen::Quaterniond eulerXyzDegrees(const Vec3& degrees) {
                             AngleAxisd(degrees[0] * kRadiansPerDegree, Vector3d::UnitX()));
 }
 
-RigidMotion::RigidMotion(const ColliderParams& collider) {
-  if (collider.keyframes.empty()) {
-    start_.position = vector3(collider.position);
-    start_.rotation = eulerXyzDegrees(collider.rotation);
-    start_.velocity = vector3(collider.velocity);
-    start_.angular_velocity = kRadiansPerDegree * vector3(collider.angular_velocity);
+RigidMotion::RigidMotion(const RigidMotionDescription& description) {
+  if (description.keyframes.empty()) {
+    start_.position = vector3(description.position);
+    start_.rotation = eulerXyzDegrees(description.rotation);
+    start_.velocity = vector3(description.velocity);
+    start_.angular_velocity = kRadiansPerDegree * vector3(description.angular_velocity);
     return;
   }
-  for (const ColliderKey& k : collider.keyframes) {
+  for (const PoseKey& k : description.keyframes) {
     Key key{k.time, {}};
     key.pose.position = vector3(k.position);
     key.pose.rotation = eulerXyzDegrees(k.rotation);

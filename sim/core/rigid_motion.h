@@ -1,6 +1,6 @@
 // A collider's rigid motion over time (docs/scene-format.md, "Moving colliders"): its pose (the
 // position of its local origin and the rotation taking its local frame to the world) and the
-// velocity of that pose, evaluated at any time from the scene's description: a constant linear
+// velocity of that pose, evaluated at any time from its description: a constant linear
 // and angular velocity, or keyframes interpolated linearly in position and by slerp in rotation,
 // held before the first key and after the last. Evaluated from the time, never accumulated, so a
 // step's pose is exact and the same in every run. Always in 3D: a 2D scene rotates about z.
@@ -10,9 +10,27 @@
 
 #include <Eigen/Geometry>
 
-#include "sim/scene/scene.h"
+#include "sim/core/math.h"
 
 namespace snowsim {
+
+// A pose of a keyframed motion: where the local origin is and how the local frame is turned.
+struct PoseKey {
+  double time = 0;  // s
+  Vec3 position{};  // m
+  Vec3 rotation{};  // degrees, as RigidMotionDescription::rotation
+};
+
+// A rigid motion as a scene describes it: a constant velocity and angular velocity from
+// `position` and `rotation` at time 0, or keyframes.
+struct RigidMotionDescription {
+  Vec3 position{};  // the local origin at time 0 (m)
+  Vec3 velocity{};  // m/s
+  // Degrees: Euler angles about x, then y, then z (R = Rz Ry Rx); a 2D scene's angle is z's.
+  Vec3 rotation{};
+  Vec3 angular_velocity{};         // degrees/s about the world axes; 2D: z's
+  std::vector<PoseKey> keyframes;  // when given, they alone set the motion
+};
 
 struct RigidPose {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();            // of the local origin (m)
@@ -33,7 +51,7 @@ Eigen::Quaterniond eulerXyzDegrees(const Vec3& degrees);
 class RigidMotion {
  public:
   RigidMotion() = default;  // at rest at the origin
-  explicit RigidMotion(const ColliderParams& collider);
+  explicit RigidMotion(const RigidMotionDescription& description);
 
   RigidPose at(double time) const;
   bool moves() const;

@@ -9,6 +9,7 @@
 #include "sim/core/pic_flip.h"
 #include "sim/core/stencil.h"
 #include "sim/mpm/transfer_scheme.h"
+#include "sim/scene/scene_colliders.h"
 
 namespace snowsim {
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "sim/core/errors.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/solver.h"
 
 namespace snowsim {

@@ -279,15 +279,15 @@ Vec3 parseRotation(JsonFields& f, const std::string& key, int dimension) {
   return toVec3(f.numbers(key, std::vector<double>(3, 0.0), {3}));
 }
 
-std::vector<ColliderKey> parseKeyframes(const Json& keys, const JsonFields& collider,
-                                        const Scene& scene) {
+std::vector<PoseKey> parseKeyframes(const Json& keys, const JsonFields& collider,
+                                    const Scene& scene) {
   const std::vector<int> dims{scene.authored_dimension};
-  std::vector<ColliderKey> out;
+  std::vector<PoseKey> out;
   if (keys.empty()) collider.fail("keyframes", "must hold at least one key");
   for (size_t i = 0; i < keys.size(); ++i) {
     JsonFields k(keys[i], collider.fieldPath("keyframes") + "[" + std::to_string(i) + "]",
                  scene.file);
-    ColliderKey key;
+    PoseKey key;
     key.time = k.number("time", std::nullopt, 0);
     if (!out.empty() && !(key.time > out.back().time))
       k.fail("time", "must be later than the key before (" + numberText(out.back().time) +

@@ -9,13 +9,14 @@
 #include <vector>
 
 #include "sim/core/bspline.h"
+#include "sim/core/collider_kind.h"
+#include "sim/core/math.h"
+#include "sim/core/rigid_motion.h"
 #include "sim/core/snapshot.h"
 #include "sim/geometry/triangle_mesh.h"
 #include "sim/mpm/snow_material.h"
 
 namespace snowsim {
-
-using Vec3 = std::array<double, 3>;
 
 enum class SolverType { DensityHybrid, Mpm };
 // Points: the particles of a PLY file (a frame of a run, or another tool's state), as they are.
@@ -60,8 +61,6 @@ enum class MpmIntegrator { Explicit, SemiImplicit };
 enum class InitialVolume { Lattice, GridDensity };
 // The precision of the MPM state and its step's arithmetic (docs/performance.md weighs them).
 enum class MpmPrecision { Double, Float };
-enum class ColliderType { Sticky, Slip, Separating };
-enum class ColliderShape { HalfSpace, Sphere, Box, Drum, Mesh };
 
 // Particles whose surroundings rest skip their gather, their F_E update and their advection
 // (docs/mpm.md): one falls asleep after `steps` steps in a row in which it and every node of its
@@ -108,28 +107,16 @@ struct SceneMesh {
   }
 };
 
-// A pose of a keyframed collider: where its local origin is and how its local frame is turned.
-struct ColliderKey {
-  double time = 0;  // s
-  Vec3 position{};  // m
-  Vec3 rotation{};  // degrees, as ColliderParams::rotation
-};
-
-// A collider's shape is given in its local frame, placed in the world by a rigid motion: a
-// constant velocity and angular velocity from `position` and `rotation` at time 0, or keyframes
-// (sim/core/rigid_motion.h).
-struct ColliderParams {
+// A collider's shape is given in its local frame, placed in the world by its rigid motion (the
+// base: a constant velocity and angular velocity from `position` and `rotation` at time 0, or
+// keyframes; sim/core/rigid_motion.h). Its position is the local origin: a point of the plane,
+// the shape's centre.
+struct ColliderParams : RigidMotionDescription {
   ColliderShape shape = ColliderShape::HalfSpace;
-  Vec3 position{};       // the local origin: a point of the plane, the shape's centre (m)
   Vec3 normal{0, 1, 0};  // half space: outward normal in the local frame (the solid is behind it)
   double radius = 0;     // sphere; drum: the inner radius of its wall, axis along local z (m)
   Vec3 size{};           // box extents (m)
   SceneMesh mesh;        // mesh: its origin at position
-  Vec3 velocity{};       // the collider moves with this velocity (m/s)
-  // Degrees: Euler angles about x, then y, then z (R = Rz Ry Rx); a 2D scene's angle is z's.
-  Vec3 rotation{};
-  Vec3 angular_velocity{};             // degrees/s about the world axes; 2D: z's
-  std::vector<ColliderKey> keyframes;  // when given, they alone set the motion
   ColliderType type = ColliderType::Separating;
   double friction = 0.2;  // Coulomb coefficient
 };

@@ -81,7 +81,7 @@ Json colliderJson(const ColliderParams& c, int dimension) {
     j["rotation"] = rotationJson(c.rotation, dimension);
     j["angular_velocity"] = rotationJson(c.angular_velocity, dimension);
   }
-  for (const ColliderKey& k : c.keyframes)
+  for (const PoseKey& k : c.keyframes)
     j["keyframes"].push_back({{"time", k.time},
                               {"position", entries(k.position, dimension)},
                               {"rotation", rotationJson(k.rotation, dimension)}});

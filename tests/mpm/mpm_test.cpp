@@ -7,7 +7,7 @@
 #include <string>
 #include <type_traits>
 
-#include "sim/core/collider.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/core/stencil.h"
 #include "sim/scene/json_fields.h"

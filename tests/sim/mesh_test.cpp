@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "sim/core/collider.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/geometry/level_set.h"
 #include "sim/geometry/triangle_mesh.h"

@@ -1,7 +1,7 @@
 // The quality levels, from the full study's Pareto fronts: docs/study.md, "snowsim run --quality",
 // has each level's measured cost and error on the report's snowball drop and thrown ball and on
 // a 3D smash.
-#include "app/quality.h"
+#include "sim/scene/quality.h"
 
 #include "sim/core/errors.h"
 

@@ -1,4 +1,4 @@
-#include "app/scale.h"
+#include "sim/scene/scale.h"
 
 #include <cmath>
 #include <sstream>

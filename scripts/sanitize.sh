@@ -22,7 +22,7 @@ case "$mode" in
   thread)
     dir=build-tsan sanitizers=thread
     # The binaries with a THREADED filter in tests/CMakeLists.txt, and the snowsim they run.
-    targets=(--target snowsim sim_tests cli_tests mpm_tests allocation_tests)
+    targets=(--target snowsim sim_tests app_tests mpm_tests allocation_tests)
     tests=(-L threaded)
     export TSAN_OPTIONS=halt_on_error=1:abort_on_error=1:second_deadlock_stack=1
     # llvmpipe rasterises on the calling thread: its own workers meet through Mesa's atomics,

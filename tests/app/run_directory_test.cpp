@@ -12,7 +12,7 @@
 #include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/scene.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 

@@ -23,7 +23,7 @@
 
 #include "render/image.h"
 #include "sim/io/ply.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 

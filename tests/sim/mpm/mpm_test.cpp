@@ -796,7 +796,7 @@ TEST(Mpm, StoredOrderChangesOnlyRoundOff) {
 
 // The report's Fig. 8 scene with the MPM solver: the thrown ball (body 1) hits the tower (body 0)
 // and stays on its side; the report's method lets it through at dt = 0.01
-// (tests/report/report_scenes_test.cpp keeps that failure).
+// (tests/sim/report/report_scenes_test.cpp keeps that failure).
 TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
   const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/column_thrown_ball.json";
   for (const char* transfer : {"pic_flip", "apic", "mls"}) {

@@ -22,7 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/io/checkpoint.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace fs = std::filesystem;
 using snowsim_test::bytesOf;

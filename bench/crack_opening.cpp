@@ -28,10 +28,10 @@
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
-#include "sim/mpm/reference_step.h"
 #include "sim/scene/sampling.h"
 #include "sim/simulation.h"
 #include "study/metrics.h"
+#include "tests/support/reference_step.h"
 
 namespace snowsim {
 namespace {

@@ -21,8 +21,8 @@ case "$mode" in
     ;;
   thread)
     dir=build-tsan sanitizers=thread
-    # The binaries with a THREADED filter in tests/CMakeLists.txt, and the snowsim they run.
-    targets=(--target snowsim sim_tests cli_tests mpm_tests allocation_tests)
+    # The binaries holding THREADED_TEST declarations, and snowsim (tests/CMakeLists.txt)
+    targets=(--target threaded_tests)
     tests=(-L threaded)
     export TSAN_OPTIONS=halt_on_error=1:abort_on_error=1:second_deadlock_stack=1
     # llvmpipe rasterises on the calling thread: its own workers meet through Mesa's atomics,

@@ -23,9 +23,9 @@ packages=(
   gnuplot-nox openmpi-bin libopenmpi-dev
   # fuzzing (scripts/fuzz.sh): clang, libFuzzer's runtime (libclang_rt.fuzzer), llvm-symbolizer
   clang libclang-rt-14-dev llvm
-  # tests/export: the Blender loader script and the VDB import in Debian's Blender 3.4.1 (about
-  # 30 s to install; the test skips itself without it); the script reads PLY through numpy, which
-  # Debian's Blender only recommends
+  # tests/sim/io/export_test.cpp: the Blender loader script and the VDB import in Debian's
+  # Blender 3.4.1 (about 30 s to install; the test skips itself without it); the script reads PLY
+  # through numpy, which Debian's Blender only recommends
   blender python3-numpy
 )
 

@@ -1,5 +1,5 @@
-// Visual regression: each case of tests/golden/cases.txt, a test of its own named after it, is
-// simulated and rendered by the snowsim command line and compared with its golden image by
+// Visual regression: each case of tests/render/golden/cases.txt, a test of its own named after it,
+// is simulated and rendered by the snowsim command line and compared with its golden image by
 // `snowsim diff`. Tolerance (docs/rendering.md), the same for every case: a pixel differs beyond a
 // YIQ distance of 0.1, and at most 0.5% of the pixels may differ, which covers the isolated pixels
 // another CPU flips where spheres meet. On failure the rendered, golden and diff images are left
@@ -28,7 +28,7 @@ void PrintTo(const GoldenCase& c, std::ostream* os) {
 }
 
 std::vector<GoldenCase> goldenCases() {
-  std::ifstream in(std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/cases.txt");
+  std::ifstream in(std::string(SNOWSIM_SOURCE_DIR) + "/tests/render/golden/cases.txt");
   std::vector<GoldenCase> cases;
   std::string line;
   while (std::getline(in, line)) {
@@ -62,7 +62,8 @@ TEST_P(GoldenCaseTest, RenderedSceneMatchesItsGoldenImage) {
             0)
       << c.name;
   const fs::path rendered = dir / "frame_00001.png", diff = dir / "diff.png";
-  const std::string golden = std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/" + c.name + ".png";
+  const std::string golden =
+      std::string(SNOWSIM_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
   const int code = exitCode(snowsim + " diff " + rendered.string() + " " + golden +
                             " --threshold 0.1 --max-share 0.005 --out " + diff.string() + " > " +
                             (dir / "diff.txt").string() + " 2>&1");
@@ -79,7 +80,7 @@ INSTANTIATE_TEST_SUITE_P(Golden, GoldenCaseTest, testing::ValuesIn(goldenCases()
 
 // The comparison is not blind: a golden against a different picture fails.
 TEST(Golden, ADifferentPictureFails) {
-  const std::string dir = std::string(SNOWSIM_SOURCE_DIR) + "/tests/golden/";
+  const std::string dir = std::string(SNOWSIM_SOURCE_DIR) + "/tests/render/golden/";
   EXPECT_EQ(exitCode(std::string(SNOWSIM_BINARY) + " diff " + dir + "snowball_drop_halfway.png " +
                      dir + "column_density_cells.png --max-share 0.005 > /dev/null 2>&1"),
             1);

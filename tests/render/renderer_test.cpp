@@ -6,7 +6,7 @@
 
 #include "render/renderer.h"
 #include "sim/core/errors.h"
-#include "tests/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace snowsim {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "sim/core/snapshot.h"
 #include "sim/io/ply.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 

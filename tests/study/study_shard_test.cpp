@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 

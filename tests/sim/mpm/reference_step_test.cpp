@@ -1,8 +1,8 @@
-// MpmSolver against the plain reference step (sim/mpm/reference_step.h): the same particles, the
-// same fixed dt, the same positions and velocities to round-off. The two sum the same terms in
+// MpmSolver against the plain reference step (tests/support/reference_step.h): the same particles,
+// the same fixed dt, the same positions and velocities to round-off. The two sum the same terms in
 // different orders (the solver by sorted blocks and axis by axis), so they differ by round-off,
 // which stable steps carry along without amplifying it much.
-#include "sim/mpm/reference_step.h"
+#include "tests/support/reference_step.h"
 
 #include <gtest/gtest.h>
 

@@ -22,7 +22,8 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/io/checkpoint.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
+#include "tests/support/threaded_test.h"
 
 namespace fs = std::filesystem;
 using snowsim_test::bytesOf;
@@ -111,7 +112,7 @@ std::string commandLine(const std::vector<std::string>& args) {
 // the bytes of the same checkpoint encoded at once; the one before stays as .prev. A state that
 // changes its length between the count and the write is an internal error that leaves the
 // checkpoint as it was.
-TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
+THREADED_TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
   const fs::path dir = freshDir("streamed");
   fs::create_directories(dir);
   const std::string path = (dir / "checkpoint.snowsim").string();
@@ -167,7 +168,7 @@ TEST(Checkpoint, AStreamedCheckpointHasTheBytesOfOneEncodedWhole) {
 // Killed with SIGKILL at several moments (after k frames, and some milliseconds into the next
 // frame's steps) and resumed, on one and two threads: every PLY and PNG byte for byte as the
 // uninterrupted run's. Each kill leaves a later checkpoint than the one before it.
-TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
+THREADED_TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
   for (const Case& c : kCases) {
     const fs::path whole = freshDir("whole_" + c.name);
     const auto reference = runSnowsim(commandLine(runArgs(c, whole, 1)).substr(1));
@@ -212,7 +213,7 @@ TEST(Checkpoint, ResumeAfterSigkillWritesTheFramesOfAnUninterruptedRun) {
 // The scene's output object sets the cadence; the command line overrides it. Killed with
 // SIGKILL after some frames, a run checkpointing every frame by its scene has a checkpoint to
 // resume from, one told otherwise by --checkpoint-every 0 --checkpoint-minutes 0 has none.
-TEST(Checkpoint, TheSceneSetsTheCadenceAndTheCommandLineOverridesIt) {
+THREADED_TEST(Checkpoint, TheSceneSetsTheCadenceAndTheCommandLineOverridesIt) {
   const auto killedAfterFrame3 = [](const std::string& name, std::vector<std::string> extra) {
     const fs::path out = freshDir(name);
     std::vector<std::string> args = runArgs(kCases[0], out, 1);
@@ -242,7 +243,7 @@ TEST(Checkpoint, TheSceneSetsTheCadenceAndTheCommandLineOverridesIt) {
 
 // SIGTERM stops mid-frame at the end of a step; the checkpoint holds that state, and resume lands
 // on the same steps (the last one shortened to the frame's time as before).
-TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
+THREADED_TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
   // Twenty seconds of snow a frame, some 90,000 steps (about half a second): a stop lands between
   // frames.
   const auto args = [](const fs::path& out, int threads) {
@@ -320,7 +321,7 @@ TEST(Checkpoint, ResumeAfterSigtermMidFrameWritesTheSameFrames) {
 // A run holds its directory: a second run, an --overwrite or a resume into it while it goes is
 // refused and writes nothing; once it has stopped, the resume continues it. The run is held still
 // (SIGSTOP) while the others try, so that it cannot end first on a slow machine.
-TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume) {
+THREADED_TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume) {
   const fs::path out = freshDir("held");
   const std::vector<std::string> args{
       "run",   sceneFile("mpm_reference"), "-o",    out.string(),   "--no-png", "--no-mp4",
@@ -351,7 +352,7 @@ TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume) {
 }
 
 // The MP4 of a killed and resumed run holds every frame once: ffprobe counts as many as PNGs.
-TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
+THREADED_TEST(Checkpoint, TheVideoOfAResumedRunHoldsEveryFrameOnce) {
   const fs::path out = freshDir("video");
   std::vector<std::string> args = runArgs(kCases[0], out, 1);
   std::erase(args, std::string("--no-mp4"));
@@ -380,7 +381,7 @@ std::string pictureHashes(const fs::path& video) {
 
 // A run that writes its MP4 but no PNGs, killed and resumed: the video's first frames are drawn
 // again from the PLY frames (colliders included), to the very pictures of an uninterrupted run.
-TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
+THREADED_TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
   const fs::path out = freshDir("video_from_ply"), whole = freshDir("video_from_ply_whole");
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
   std::erase(args, std::string("--no-mp4"));
@@ -411,7 +412,7 @@ TEST(Checkpoint, AResumedRunWithoutPngsRedrawsItsVideoFromThePly) {
 // A run that writes nothing but its MP4 cannot rebuild the video's first frames: resume says so
 // and names --no-mp4, which goes on without the video, leaving the stopped run's video of its
 // first frames as it was, and later resumes of it too.
-TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
+THREADED_TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
   const fs::path out = freshDir("video_only");
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
   std::erase(args, std::string("--no-mp4"));
@@ -455,7 +456,7 @@ TEST(Checkpoint, AVideoOnlyRunResumesWithoutItsVideoWhenAsked) {
 // A checkpoint that is truncated, corrupted, of another format or snowsim version, of another
 // scene or with a damaged record of its sessions: exit 2, a message naming it, and not a byte of
 // the run's frames changed.
-TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
+THREADED_TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
   const fs::path out = freshDir("damaged");
   const pid_t child = startSnowsim(runArgs(kCases[0], out, 1));
   ASSERT_TRUE(waitFor(out / frameName(2, "png")));
@@ -532,7 +533,7 @@ TEST(Checkpoint, ADamagedOrForeignCheckpointIsRefusedAndNothingIsWritten) {
 // The disk fills up mid-run as the next checkpoint is written (its temporary file a link to
 // /dev/full): a message naming the file, exit 2, the earlier checkpoint intact, and resuming from
 // it (with room again) ends with the uninterrupted run's frames.
-TEST(Checkpoint, AFullDiskKeepsTheLastCheckpoint) {
+THREADED_TEST(Checkpoint, AFullDiskKeepsTheLastCheckpoint) {
   const Case& c = kCases[0];
   const fs::path whole = freshDir("full_whole");
   ASSERT_EQ(runSnowsim(commandLine(runArgs(c, whole, 1)).substr(1)).code, 0);
@@ -558,7 +559,7 @@ TEST(Checkpoint, AFullDiskKeepsTheLastCheckpoint) {
 }
 
 // A second signal stops at once: exit 128 + signal, no temporary or partial file left behind.
-TEST(Checkpoint, ASecondSignalStopsAtOnceLeavingOnlyCompleteFiles) {
+THREADED_TEST(Checkpoint, ASecondSignalStopsAtOnceLeavingOnlyCompleteFiles) {
   const fs::path out = freshDir("second_signal");
   std::vector<std::string> args = runArgs(kCases[2], out, 1);
   std::erase(args, std::string("--no-mp4"));

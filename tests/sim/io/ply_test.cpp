@@ -6,7 +6,7 @@
 
 #include "sim/core/errors.h"
 #include "sim/io/ply.h"
-#include "tests/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace snowsim {
 namespace {

@@ -1,4 +1,4 @@
-#include "sim/mpm/reference_step.h"
+#include "tests/support/reference_step.h"
 
 #include <algorithm>
 

@@ -8,6 +8,8 @@
 #include <thread>
 #include <vector>
 
+#include "tests/support/threaded_test.h"
+
 using namespace snowsim;
 
 namespace {
@@ -44,13 +46,13 @@ void checkStagesMeetInOrder(int parts, bool parallel = true) {
 
 }  // namespace
 
-TEST(Team, StagesOfASharedTaskMeetInOrder) {
+THREADED_TEST(Team, StagesOfASharedTaskMeetInOrder) {
   checkStagesMeetInOrder(2);
   checkStagesMeetInOrder(3);  // more threads than cores on a 2-core machine: they take turns
   checkStagesMeetInOrder(5);  // a barrier of three rounds, whose signals form two rings in one
 }
 
-TEST(Team, ATeamNotInParallelRunsEveryPartOnTheCallingThread) {
+THREADED_TEST(Team, ATeamNotInParallelRunsEveryPartOnTheCallingThread) {
   checkStagesMeetInOrder(3, false);
   Team team;
   team.configure(3, false);
@@ -61,7 +63,7 @@ TEST(Team, ATeamNotInParallelRunsEveryPartOnTheCallingThread) {
   EXPECT_EQ(ran, std::vector<std::thread::id>(3, std::this_thread::get_id()));
 }
 
-TEST(Team, EachPartRunsOnAThreadOfItsOwnAfterEveryConfiguration) {
+THREADED_TEST(Team, EachPartRunsOnAThreadOfItsOwnAfterEveryConfiguration) {
   Team team;
   for (const int parts : {2, 4, 1, 3}) {
     team.configure(parts, true);
@@ -73,7 +75,7 @@ TEST(Team, EachPartRunsOnAThreadOfItsOwnAfterEveryConfiguration) {
   }
 }
 
-TEST(Team, AMovedTeamStartsWorkersOfItsOwn) {
+THREADED_TEST(Team, AMovedTeamStartsWorkersOfItsOwn) {
   Team first;
   first.configure(3, true);
   first.forEachPart("stage", [](int) {});
@@ -84,7 +86,7 @@ TEST(Team, AMovedTeamStartsWorkersOfItsOwn) {
   EXPECT_EQ(std::set<std::thread::id>(ran.begin(), ran.end()).size(), 3u);
 }
 
-TEST(Team, SleepingThreadsAreWokenForTheNextTaskAndAtBarriers) {
+THREADED_TEST(Team, SleepingThreadsAreWokenForTheNextTaskAndAtBarriers) {
   // Long enough for the spinning to end: the workers sleep between the tasks, and in a stage
   // whose part 0 is slow the others sleep at the barrier.
   const auto nap = [] { std::this_thread::sleep_for(std::chrono::milliseconds(30)); };
@@ -104,7 +106,7 @@ TEST(Team, SleepingThreadsAreWokenForTheNextTaskAndAtBarriers) {
   EXPECT_EQ(runs, std::vector<int>(3, 6));
 }
 
-TEST(Team, OutsideASharedTaskEachStageRunsOnItsOwn) {
+THREADED_TEST(Team, OutsideASharedTaskEachStageRunsOnItsOwn) {
   Team team;
   team.configure(4, true);
   std::vector<int> runs(4, 0);
@@ -117,7 +119,7 @@ TEST(Team, OutsideASharedTaskEachStageRunsOnItsOwn) {
 
 // The profile counts each stage's meetings on each thread, and puts a slow part's time in its own
 // thread's work and in the other thread's wait.
-TEST(Team, AProfileSplitsEachStageIntoWorkAndWaitPerThread) {
+THREADED_TEST(Team, AProfileSplitsEachStageIntoWorkAndWaitPerThread) {
   const auto nap = [] { std::this_thread::sleep_for(std::chrono::milliseconds(20)); };
   const auto run = [&](Team& team) {
     team.together(true, [&] {

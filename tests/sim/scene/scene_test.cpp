@@ -10,7 +10,7 @@
 #include "sim/core/errors.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
-#include "tests/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 // The scene is plain structs: its header keeps the JSON library to itself.
 #ifdef NLOHMANN_JSON_VERSION_MAJOR

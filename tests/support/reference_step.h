@@ -2,7 +2,7 @@
 // programs: one loop over the particles, one over the grid nodes, one over the particles again. It
 // computes what MpmSolver does with its defaults (MLS transfers, quadratic B-splines, explicit
 // integration, lattice initial volumes), only slower, and serves as its test oracle
-// (tests/mpm/reference_step_test.cpp). Names are the papers' symbols: Stomakhin et al. 2013, "A
+// (tests/sim/mpm/reference_step_test.cpp). Names are the papers' symbols: Stomakhin et al. 2013, "A
 // Material Point Method for Snow Simulation" (section 4's steps, section 5's model); Jiang et al.
 // 2015, "The Affine Particle-In-Cell Method" (APIC); Hu et al. 2018, "A Moving Least Squares
 // Material Point Method" (MLS-MPM).

@@ -12,7 +12,8 @@
 #include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/scene.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
+#include "tests/support/threaded_test.h"
 
 namespace {
 
@@ -119,7 +120,7 @@ TEST(RunDirectory, OtherFilesDoNotStopARun) {
 
 // run.json holds what reproduces the run: its resolved scene, run again with no --set or
 // --quality, gives the same frames.
-TEST(RunDirectory, RunJsonRecordsWhatReproducesTheRun) {
+THREADED_TEST(RunDirectory, RunJsonRecordsWhatReproducesTheRun) {
   const fs::path out = freshDir("reproduce"), again = freshDir("reproduce_again");
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
                               " --no-png --no-mp4 --quality draft --threads 2 --set solver=mpm "
@@ -170,7 +171,7 @@ TEST(RunDirectory, EveryScenesResolvedFormReadsBackTheSame) {
 
 // A full disk mid-run: frame 3's PLY goes to /dev/full (its temporary file is a link there), so
 // the write fails with ENOSPC as on a full file system.
-TEST(RunDirectory, AFullDiskMidRunNamesTheFileAndKeepsEarlierFrames) {
+THREADED_TEST(RunDirectory, AFullDiskMidRunNamesTheFileAndKeepsEarlierFrames) {
   for (const std::string failing : {"frame_00003.ply", "frame_00003.png"}) {
     const fs::path out = freshDir("full_disk");
     fs::create_directories(out);

@@ -11,7 +11,7 @@
 
 #include "render/image.h"
 #include "render/image_diff.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 

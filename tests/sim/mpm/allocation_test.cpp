@@ -13,6 +13,7 @@
 #include "sim/mpm/mpm_solver.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
+#include "tests/support/threaded_test.h"
 
 namespace {
 std::atomic<long> allocations{0};
@@ -80,7 +81,7 @@ long allocationsPerStepAfterTheFirst(const std::string& integrator, int particle
 TEST(NoAllocation, ExplicitStep2D) {
   EXPECT_EQ(allocationsPerStepAfterTheFirst<2>("explicit"), 0);
 }
-TEST(NoAllocation, ExplicitStep2DOnTwoThreads) {
+THREADED_TEST(NoAllocation, ExplicitStep2DOnTwoThreads) {
   EXPECT_EQ(allocationsPerStepAfterTheFirst<2>("explicit", 36, 2), 0);
 }
 TEST(NoAllocation, ExplicitStep3D) {

@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/io/ply.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace fs = std::filesystem;
 using snowsim_test::frames;
@@ -26,7 +26,7 @@ using snowsim_test::runSnowsim;
 
 namespace {
 
-const std::string kScene = std::string(SNOWSIM_SOURCE_DIR) + "/tests/mpi/smash.json";
+const std::string kScene = std::string(SNOWSIM_SOURCE_DIR) + "/tests/sim/distributed/smash.json";
 // Two frames of the smash (0.04 s, some 400 steps): the ball reaches the wall and flattens.
 const std::string kShort = " --set time.duration=0.04 --no-png --no-mp4 --threads 1";
 

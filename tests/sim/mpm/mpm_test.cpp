@@ -13,6 +13,7 @@
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
 #include "sim/simulation.h"
+#include "tests/support/threaded_test.h"
 
 using namespace snowsim;
 
@@ -507,7 +508,7 @@ TEST(Mpm, StepLimitNamesTheTermsOfTheStableStep) {
 // it. A ball thrown up and sideways without gravity crosses several rows: after every step the
 // grid must hold all of its mass, 1 and 2 threads must agree bit for bit, and the particles must
 // have been binned more than once but far less often than every step.
-TEST(Mpm, RowsHoldBetweenBinningsOnAnyThreadCount) {
+THREADED_TEST(Mpm, RowsHoldBetweenBinningsOnAnyThreadCount) {
   Json j = baseScene();
   j["grid"]["cells"] = {40, 40};
   j["gravity"] = {0, 0};
@@ -726,7 +727,7 @@ void expectCracksOpenBitIdenticallyOnAnyThreadCount(Json j) {
   expectBitIdenticalOnAnyThreadCount<D, T>(j, D == 2 ? "2D, cracks open" : "3D, cracks open");
 }
 
-TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
+THREADED_TEST(Mpm, SameSceneAndThreadCountsGiveBitIdenticalResults) {
   Json j = baseScene();
   j["bodies"][0]["velocity"] = {1, -2};
   j["bodies"][0]["center"] = {0.2, 0.15};
@@ -796,7 +797,7 @@ TEST(Mpm, StoredOrderChangesOnlyRoundOff) {
 
 // The report's Fig. 8 scene with the MPM solver: the thrown ball (body 1) hits the tower (body 0)
 // and stays on its side; the report's method lets it through at dt = 0.01
-// (tests/report/report_scenes_test.cpp keeps that failure).
+// (tests/sim/report/report_scenes_test.cpp keeps that failure).
 TEST(Mpm, ThrownBallDoesNotPassThroughTheTower) {
   const std::string path = std::string(SNOWSIM_SOURCE_DIR) + "/scenes/column_thrown_ball.json";
   for (const char* transfer : {"pic_flip", "apic", "mls"}) {

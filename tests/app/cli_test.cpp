@@ -23,7 +23,8 @@
 
 #include "render/image.h"
 #include "sim/io/ply.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
+#include "tests/support/threaded_test.h"
 
 namespace {
 
@@ -53,7 +54,8 @@ nlohmann::json runSummary(const fs::path& out) {
   return nlohmann::json::parse(std::ifstream(out / "run.json"));
 }
 
-TEST(Cli, RunWritesPlyFramesAndASummary) {
+// Threaded: its PNGs go through the writer's thread, as every `snowsim run` writing PNGs does.
+THREADED_TEST(Cli, RunWritesPlyFramesAndASummary) {
   const fs::path out = freshDir("ok");
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
                               " --set time.duration=0.1");
@@ -483,7 +485,7 @@ std::pair<double, int> signalOnceWritten(pid_t child, const fs::path& path, int 
 
 // SIGTERM in the middle of a long run: the video so far is finalised and plays, run.json says
 // how many frames it holds, the exit code is 128 + 15.
-TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
+THREADED_TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
   const fs::path out = freshDir("interrupted");
   const pid_t child = startSnowsim({"run", scene("snowball_drop"), "-o", out.string(), "--set",
                                     "time.duration=1000", "--no-ply", "--no-png", "--width", "160",
@@ -505,7 +507,7 @@ TEST(Cli, SigtermFinalisesTheVideoWrittenSoFar) {
 
 // A signal stops the run at the end of the current step, not at the next frame: here a frame is
 // 2 s of simulated snow, many seconds of stepping, and the run must end long before the next one.
-TEST(Cli, SigtermStopsWithinAFewStepsNotAtTheNextFrame) {
+THREADED_TEST(Cli, SigtermStopsWithinAFewStepsNotAtTheNextFrame) {
   const fs::path out = freshDir("interrupted_mid_frame");
   const pid_t child =
       startSnowsim({"run", scene("mpm_snowball_wall"), "-o", out.string(), "--set",

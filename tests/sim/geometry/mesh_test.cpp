@@ -20,7 +20,7 @@
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
-#include "tests/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 using namespace snowsim;
 namespace fs = std::filesystem;

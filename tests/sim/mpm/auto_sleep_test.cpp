@@ -11,6 +11,7 @@
 #include "sim/mpm/mpm_solver.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
+#include "tests/support/threaded_test.h"
 
 using namespace snowsim;
 
@@ -186,7 +187,7 @@ TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
 }
 
 // 16 particles per cell: over the 2048 that take the threaded path.
-TEST(AutoSleep, SameResultsOnOneAndTwoThreads) {
+THREADED_TEST(AutoSleep, SameResultsOnOneAndTwoThreads) {
   const Json j = pileAndBall(16);
   auto one = makeSolver(j, 1), two = makeSolver(j, 2);
   ASSERT_GT(one.particles().size(), 2048);

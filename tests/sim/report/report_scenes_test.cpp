@@ -11,7 +11,7 @@
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
 #include "sim/simulation.h"
-#include "tests/temp_dir.h"
+#include "tests/support/temp_dir.h"
 
 namespace snowsim {
 namespace {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "sim/core/errors.h"
+#include "tests/support/threaded_test.h"
 
 namespace snowsim {
 namespace {
@@ -27,7 +28,7 @@ std::filesystem::path freshDirectory(const char* name) {
   return dir;
 }
 
-TEST(BackgroundFrameWriter, WritesEveryQueuedFrameExactly) {
+THREADED_TEST(BackgroundFrameWriter, WritesEveryQueuedFrameExactly) {
   const auto dir = freshDirectory("snowsim_frame_writer_test");
   BackgroundFrameWriter writer(2);
   for (int f = 0; f < 12; ++f)  // more frames than the queue holds: write() must wait, not drop
@@ -39,7 +40,7 @@ TEST(BackgroundFrameWriter, WritesEveryQueuedFrameExactly) {
   }
 }
 
-TEST(BackgroundFrameWriter, AFailedWriteIsReportedNamingThePath) {
+THREADED_TEST(BackgroundFrameWriter, AFailedWriteIsReportedNamingThePath) {
   const auto dir = freshDirectory("snowsim_frame_writer_fail");
   const std::string bad = (dir / "missing_directory" / "frame.png").string();
   BackgroundFrameWriter writer;
@@ -55,7 +56,7 @@ TEST(BackgroundFrameWriter, AFailedWriteIsReportedNamingThePath) {
 
 // Every frame reaches the video, the frames without a PNG path too, and only those with one are
 // written as PNG.
-TEST(BackgroundFrameWriter, FeedsTheVideoEveryFrameAndWritesOnlyThePngsAsked) {
+THREADED_TEST(BackgroundFrameWriter, FeedsTheVideoEveryFrameAndWritesOnlyThePngsAsked) {
   const auto dir = freshDirectory("snowsim_frame_writer_video");
   VideoEncoder video((dir / "frames.mp4").string(), 40, 30, VideoSettings{});
   {

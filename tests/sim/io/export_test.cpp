@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/io/ply.h"
-#include "tests/cli/run_snowsim.h"
+#include "tests/support/run_snowsim.h"
 
 namespace {
 
@@ -108,7 +108,7 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
                               " blender -b --factory-startup --python-exit-code 1 --python " +
                               source + "/scripts/blender_load_run.py --python " + source +
                               "/scripts/blender_load_run.py --python " + source +
-                              "/tests/export/blender_check.py -- " + out.string() + " --vdb");
+                              "/tests/sim/io/blender_check.py -- " + out.string() + " --vdb");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto blender = nlohmann::json::parse(std::ifstream(report));
 
@@ -184,7 +184,7 @@ TEST(Export, BlenderDrawsTheCollidersAndRefusesAMissingRun) {
   const std::string blender = " blender -b --factory-startup --python-exit-code 1 --python " +
                               source + "/scripts/blender_load_run.py ";
   const Result r = runCommand("SNOWSIM_BLENDER_REPORT=" + report.string() + blender + "--python " +
-                              source + "/tests/export/blender_check.py -- " + out.string());
+                              source + "/tests/sim/io/blender_check.py -- " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   const auto loaded = nlohmann::json::parse(std::ifstream(report))["colliders"];
   const auto frames = nlohmann::json::parse(std::ifstream(out / "colliders.json"))["frames"];

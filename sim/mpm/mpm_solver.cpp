@@ -8,6 +8,7 @@
 #include "sim/core/errors.h"
 #include "sim/core/pic_flip.h"
 #include "sim/core/stencil.h"
+#include "sim/io/schedule_state.h"
 #include "sim/mpm/transfer_scheme.h"
 #include "sim/scene/scene_colliders.h"
 
@@ -977,7 +978,7 @@ template <int D, class T>
 void MpmSolver<D, T>::saveRankState(StateWriter& out) const {
   saveParticleArrays(out, particles_);
   for (const Collider<D>& c : colliders_) out.value(c.position);  // moved by the steps
-  schedule_.saveState(out);
+  saveScheduleState(out, schedule_);
   for (const Real r :
        {fastest_speed_, fastest_signal_, energy_, initial_energy_, limit_when_exceeded_})
     out.value(r);
@@ -1002,7 +1003,7 @@ void MpmSolver<D, T>::loadRankState(StateReader& in) {
     loadParticleArrays(in, particles_);
   }
   for (Collider<D>& c : colliders_) in.value(c.position);
-  schedule_.loadState(in);
+  loadScheduleState(in, schedule_);
   for (Real* r :
        {&fastest_speed_, &fastest_signal_, &energy_, &initial_energy_, &limit_when_exceeded_})
     in.value(*r);

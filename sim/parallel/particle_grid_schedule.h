@@ -17,6 +17,7 @@
 #include <limits>
 #include <memory>
 #include <span>
+#include <string>
 #include <string_view>
 #include <type_traits>
 #include <utility>
@@ -24,7 +25,6 @@
 
 #include "sim/core/grid.h"
 #include "sim/core/stage_clock.h"
-#include "sim/io/checkpoint.h"
 #include "sim/parallel/loop_runner.h"
 #include "sim/parallel/row_binning.h"
 #include "sim/parallel/still_blocks.h"
@@ -177,21 +177,24 @@ class ParticleGridSchedule final : public LoopRunner {
   void run(int count, void (*body)(void*, int, int), void* context) override;
 
   // What decides the next steps' order of summation, for a checkpoint: the binning, and when the
-  // particles were last stored in sorted order. loadState restores it into a schedule of the
-  // same grid and particle count (InputError when it does not fit).
-  void saveState(StateWriter& out) const {
-    binning_.saveState(out);
-    out.value(binned_since_stored_);
-    out.value(stored_step_);
-    out.value(steps_);
-  }
-  void loadState(StateReader& in) {
-    binning_.loadState(in);
-    in.value(binned_since_stored_);
-    in.value(stored_step_);
-    in.value(steps_);
+  // particles were last stored in sorted order. Plain data: the checkpoint's layer writes it.
+  struct State {
+    typename Binning::State binning;
+    bool binned_since_stored = false;
+    long stored_step = 0, steps = 0;
+  };
+  State state() const { return {binning_.state(), binned_since_stored_, stored_step_, steps_}; }
+  // Restores a state into a schedule of the same grid and particle count; returns what does not
+  // fit (empty when it fits, else the schedule is left as it was).
+  std::string restore(State state) {
+    std::string misfit = binning_.restore(std::move(state.binning));
+    if (!misfit.empty()) return misfit;
+    binned_since_stored_ = state.binned_since_stored;
+    stored_step_ = state.stored_step;
+    steps_ = state.steps;
     unsummed_scatter_ = false;
     forgetStillBlocks();
+    return misfit;
   }
 
   // How many times the particles were binned into rows. 2D: again whenever one had moved more

@@ -260,40 +260,38 @@ typename RowBinning<D>::RowCells RowBinning<D>::rowCellsAt(int o) const {
 }
 
 template <int D>
-void RowBinning<D>::saveState(StateWriter& out) const {
-  out.array(order_);
-  out.array(row_start_);
-  out.value(binned_first_block_);
-  out.value(binned_last_block_);
-  out.value(must_bin_);
-  out.value(binnings_);
-  out.value(active_);
-  out.value(updated_);
+typename RowBinning<D>::State RowBinning<D>::state() const {
+  return {order_,  row_start_, binned_first_block_, binned_last_block_, must_bin_, binnings_,
+          active_, updated_};
 }
 
 template <int D>
-void RowBinning<D>::loadState(StateReader& in) {
-  in.array(order_, particles_);
-  in.array(row_start_, static_cast<long>(row_start_.size()));
-  for (const int p : order_)
-    if (p < 0 || p >= particles_) in.fail("a binned particle " + std::to_string(p));
+std::string RowBinning<D>::restore(State state) {
+  if (state.order.size() != order_.size() || state.row_start.size() != row_start_.size())
+    return "a binning of another particle count or grid";
+  for (const int p : state.order)
+    if (p < 0 || p >= particles_) return "a binned particle " + std::to_string(p);
+  const std::vector<int>& row_start = state.row_start;
   for (int r = 0; r < rows(); ++r)
-    if (row_start_[r] < 0 || row_start_[r] > row_start_[r + 1] || row_start_[r + 1] > particles_)
-      in.fail("the rows' particles");
-  in.value(binned_first_block_);
-  in.value(binned_last_block_);
-  in.value(must_bin_);
-  in.value(binnings_);
-  in.value(active_);
-  in.value(updated_);
-  for (const NodeBox<D>* box : {&active_, &updated_})
+    if (row_start[r] < 0 || row_start[r] > row_start[r + 1] || row_start[r + 1] > particles_)
+      return "the rows' particles";
+  for (const NodeBox<D>* box : {&state.active, &state.updated})
     for (int a = 0; a < D; ++a)
       if (box->lo[a] < 0 || box->hi[a] < 0 || box->lo[a] > grid_.nodes[a] ||
           box->hi[a] > grid_.nodes[a])
-        in.fail("the active grid nodes");
+        return "the active grid nodes";
+  order_ = std::move(state.order);
+  row_start_ = std::move(state.row_start);
+  binned_first_block_ = state.binned_first_block;
+  binned_last_block_ = state.binned_last_block;
+  must_bin_ = state.must_bin;
+  binnings_ = state.binnings;
+  active_ = state.active;
+  updated_ = state.updated;
   // Where the particles reach is not stored: every node block of the box until the next binning.
   std::fill(reached_.begin(), reached_.end(), 1);
   staged_is_reached_ = true;
+  return {};
 }
 
 template class RowBinning<2>;

@@ -8,11 +8,11 @@
 #pragma once
 
 #include <algorithm>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "sim/core/grid.h"
-#include "sim/io/checkpoint.h"
 #include "sim/parallel/team.h"
 #include "sim/parallel/work_shares.h"
 
@@ -56,9 +56,19 @@ class RowBinning {
   // Set when a particle pass found a particle beyond its row's cells.
   void particlesLeftTheirRows() { must_bin_ = true; }
   long binnings() const { return binnings_; }
-  // The binning as it stands, for a checkpoint, and back (InputError when it does not fit).
-  void saveState(StateWriter& out) const;
-  void loadState(StateReader& in);
+  // The binning as it stands, for a checkpoint, and back: plain data, which the checkpoint's
+  // layer writes and reads.
+  struct State {
+    std::vector<int> order, row_start;
+    IVec<D> binned_first_block = IVec<D>::Zero(), binned_last_block = IVec<D>::Constant(-1);
+    bool must_bin = true;
+    long binnings = 0;
+    NodeBox<D> active, updated;
+  };
+  State state() const;
+  // Restores a state of a binning of the same grid and particle count; returns what does not fit
+  // (empty when it fits, else the binning is left as it was).
+  std::string restore(State state);
 
   // The rows of part `part`, [first, last); row r's particles are sorted(o) for o in
   // [rowStart(r), rowStart(r + 1)); the colour of row r.

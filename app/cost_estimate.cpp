@@ -99,7 +99,7 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   const double rate = particles_ * double(measured_steps) / std::max(seconds, 1e-9);
   // A semi-implicit step's solve takes more iterations once the snow meets a collider or
   // hardens, which the first steps of a falling body do not show.
-  const bool solves = simulation.implicitSolves().solves > 0;
+  const bool solves = simulation.statistics().implicit_solves.solves > 0;
   // Cracks that open cost their passes only once some snow has stretched past J_P = 1, which the
   // first steps before an impact do not show (docs/snow-at-scale.md measures the factor), unless
   // the timed steps ran them from the first (a resumed run, snow stretched from the start).

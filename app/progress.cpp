@@ -23,7 +23,7 @@ std::string Progress::line(int frame, const Simulation& simulation) {
       text, sizeof text, "frame %d/%d  t = %.3f / %.3f s  %ld steps, %.0f a second", frame, frames_,
       time, duration_, steps, wall > 0 ? double(steps - steps_at_start_) / wall : 0.0);
   if (dt_ > 0) n += std::snprintf(text + n, sizeof text - n, "  dt %.1e s", dt_);
-  const SleepTally sleep = simulation.autoSleep();
+  const SleepTally sleep = simulation.statistics().auto_sleep;
   if (sleep.particles > 0)  // auto-sleep is on: the share asleep after the last step
     n += std::snprintf(text + n, sizeof text - n, "  %.0f%% asleep",
                        100.0 * double(sleep.asleep_now) / double(sleep.particles));

@@ -26,6 +26,7 @@
 #include "sim/core/errors.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/geometry/level_set.h"
+#include "sim/io/checkpoint.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
@@ -633,7 +634,7 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
     summary["step_size"] = {{"smallest", simulation->chosenSteps().smallest},
                             {"largest", simulation->chosenSteps().largest},
                             {"mean", simulation->time() / double(simulation->steps())}};
-  if (const SolveTally solves = simulation->implicitSolves(); solves.solves > 0) {
+  if (const SolveTally solves = simulation->statistics().implicit_solves; solves.solves > 0) {
     summary["implicit_solves"] = {{"solves", solves.solves},
                                   {"mean_iterations", double(solves.iterations) / solves.solves},
                                   {"most_iterations", solves.most_iterations},
@@ -645,7 +646,7 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
                    scene.file.c_str(), solves.unconverged, solves.solves,
                    scene.mpm.implicit_tolerance, scene.mpm.implicit_max_iterations);
   }
-  if (const SleepTally sleep = simulation->autoSleep(); sleep.particle_steps > 0)
+  if (const SleepTally sleep = simulation->statistics().auto_sleep; sleep.particle_steps > 0)
     summary["auto_sleep"] = {
         {"asleep_share_of_particle_steps", double(sleep.asleep_steps) / sleep.particle_steps},
         {"asleep_share_at_end", double(sleep.asleep_now) / sleep.particles}};
@@ -658,7 +659,7 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   summary["quality"] = options.quality;
   summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
   summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
-  if (world.ranks() > 1) summary["ranks"] = rankSummary(simulation->rankTraffic());
+  if (world.ranks() > 1) summary["ranks"] = rankSummary(gatherEach(world, simulation->statistics().rank_traffic));
   if (stop_signal) summary["interrupted_by_signal"] = stop_signal;
   if (writes && !scene.colliders.empty())
     writeFileAtomically(options.out + "/colliders.json",

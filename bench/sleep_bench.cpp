@@ -50,7 +50,7 @@ Outcome run(bool auto_sleep, double duration, int threads) {
   Outcome o;
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   o.steps = s.steps();
-  o.sleep = s.autoSleep();
+  o.sleep = s.statistics().auto_sleep;
   o.positions = s.particles().positionsById();
   const Particles<3>& p = s.particles();
   int n = 0;

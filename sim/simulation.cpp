@@ -4,6 +4,7 @@
 
 #include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
+#include "sim/io/checkpoint.h"
 #include "sim/mpm/mpm_solver.h"
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
@@ -54,9 +55,7 @@ class SimulationOf final : public Simulation {
   long steps() const override { return solver_->steps(); }
   StepSizes chosenSteps() const override { return solver_->chosenSteps(); }
   int particleCount() const override { return solver_->particleCount(); }
-  SolveTally implicitSolves() const override { return solver_->implicitSolves(); }
-  SleepTally autoSleep() const override { return solver_->autoSleep(); }
-  std::vector<RankTraffic> rankTraffic() const override { return solver_->rankTraffic(); }
+  SolverStatistics statistics() const override { return solver_->statistics(); }
   double stepSeconds() const override { return solver_->stepSeconds(); }
   StepLimit stepLimit() const override { return solver_->stepLimit(); }
   std::vector<StageSeconds> stepStages() const override {

@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "sim/core/krylov_result.h"
 #include "sim/core/snapshot.h"
+#include "sim/core/solver_statistics.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/scene/scene.h"
 #include "sim/solver.h"
@@ -32,10 +32,8 @@ class Simulation {
   // The smallest and largest step the time-step policy chose (none before the first step).
   virtual StepSizes chosenSteps() const = 0;
   virtual int particleCount() const = 0;
-  virtual SolveTally implicitSolves() const = 0;  // the semi-implicit solves so far
-  virtual SleepTally autoSleep() const = 0;       // auto-sleep so far (mpm.auto_sleep)
-  // Under mpirun, what each rank sent the others (sim/distributed/); every rank must ask.
-  virtual std::vector<RankTraffic> rankTraffic() const = 0;
+  // What the solver counted so far: its solves, auto-sleep, what this rank sent the others.
+  virtual SolverStatistics statistics() const = 0;
   // The wall time of the steps so far.
   virtual double stepSeconds() const = 0;
   // What bounds the time step now (sim/solver.h); a look over every particle.

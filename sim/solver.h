@@ -10,15 +10,16 @@
 #include <vector>
 
 #include "sim/core/grid.h"
-#include "sim/core/krylov_result.h"
 #include "sim/core/particles.h"
 #include "sim/core/snapshot.h"
+#include "sim/core/solver_statistics.h"
 #include "sim/core/stage_clock.h"
-#include "sim/distributed/slab_decomposition.h"
-#include "sim/io/checkpoint.h"
 #include "sim/scene/scene.h"
 
 namespace snowsim {
+
+class StateWriter;  // sim/io/checkpoint.h
+class StateReader;
 
 // What snapshotParticles writes, from particles of either precision (a float converts to double
 // exactly, so the snapshot is the same bytes either way). The radius is half the side of the
@@ -44,13 +45,6 @@ void putParticles(const Particles<D, T>& p, const Scene& scene, Snapshot& s) {
 
 struct StepSizes {
   double smallest = std::numeric_limits<double>::infinity(), largest = 0;
-};
-
-// Auto-sleep over a run's steps (mpm.auto_sleep): the particle-steps taken, the share of them
-// the particles slept through, and how many particles slept through the last step.
-struct SleepTally {
-  long particle_steps = 0, asleep_steps = 0;
-  long asleep_now = 0, particles = 0;
 };
 
 // What bounds the stable step now, for telling a user why it shrank: the particle whose signal
@@ -124,15 +118,8 @@ class Solver {
     putParticles(particles(), scene, snapshot);
   }
 
-  // What each MPI rank sent the others so far, in rank order, on every rank (none for a solver
-  // that runs in one process).
-  virtual std::vector<RankTraffic> rankTraffic() const { return {}; }
-
-  // The linear solves of its semi-implicit steps so far (none for an explicit solver).
-  virtual SolveTally implicitSolves() const { return {}; }
-
-  // Auto-sleep so far (nothing for a solver without it, or with it off).
-  virtual SleepTally autoSleep() const { return {}; }
+  // What the solver counted so far (sim/core/solver_statistics.h).
+  virtual SolverStatistics statistics() const { return {}; }
 
   // Fills the solver-specific parts of a snapshot (per-particle density, grid densities, ...).
   virtual void describe(Snapshot& snapshot) const = 0;
@@ -141,18 +128,8 @@ class Solver {
   // the solver's own state. loadState restores it into a solver built from the same scene, which
   // then takes the very steps the saved one would have; throws InputError (naming the file the
   // reader reads) when the state does not fit this solver.
-  void saveState(StateWriter& out) const {
-    out.value(steps_);
-    out.value(time_);
-    out.value(chosen_);
-    saveSolverState(out);
-  }
-  void loadState(StateReader& in) {
-    in.value(steps_);
-    in.value(time_);
-    in.value(chosen_);
-    loadSolverState(in);
-  }
+  void saveState(StateWriter& out) const;  // sim/solver.cpp
+  void loadState(StateReader& in);
 
  protected:
   virtual void saveSolverState(StateWriter& out) const = 0;

@@ -62,4 +62,28 @@ inline VectorIsa& vectorIsa() {
   return isa;
 }
 
+// f() in the build for isa: f and everything it calls inlined into a function compiled for that
+// instruction set. The same arithmetic on every build (no contraction into fused multiply-adds),
+// so the same results.
+template <class F>
+SNOWSIM_TARGET_AVX2 SNOWSIM_FLATTEN void runForAvx2(const F& f) {
+  f();
+}
+template <class F>
+SNOWSIM_TARGET_AVX512 SNOWSIM_FLATTEN void runForAvx512(const F& f) {
+  f();
+}
+template <class F>
+inline void runFor(VectorIsa isa, const F& f) {
+  switch (isa) {
+    case VectorIsa::avx512:
+      return runForAvx512(f);
+    case VectorIsa::avx2:
+      return runForAvx2(f);
+    case VectorIsa::baseline:
+      break;
+  }
+  f();
+}
+
 }  // namespace snowsim

@@ -46,4 +46,19 @@ struct Particles {
   }
 };
 
+// The common attributes of `from` in the scalar of `to` (a float converts to double exactly).
+template <int D, class From, class To>
+void convertParticles(const Particles<D, From>& from, Particles<D, To>& to) {
+  const auto castEach = [](const auto& vectors, auto& into) {
+    into.resize(vectors.size());
+    for (size_t i = 0; i < vectors.size(); ++i) into[i] = vectors[i].template cast<To>();
+  };
+  castEach(from.x, to.x);
+  castEach(from.v, to.v);
+  to.mass.assign(from.mass.begin(), from.mass.end());
+  to.volume.assign(from.volume.begin(), from.volume.end());
+  to.body = from.body;
+  to.id = from.id;
+}
+
 }  // namespace snowsim

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 namespace snowsim {
@@ -43,6 +44,20 @@ class RankExchange {
     return largest;
   }
 };
+
+// Every rank's value of a plain type, in rank order, on every rank: each rank calls it at once.
+template <class V>
+std::vector<V> gatherEach(RankExchange& world, const V& mine) {
+  static_assert(std::is_trivially_copyable_v<V>, "sent as its bytes");
+  std::vector<V> all;
+  for (const std::string& bytes :
+       world.allGather(std::string_view(reinterpret_cast<const char*>(&mine), sizeof mine))) {
+    V theirs;
+    std::memcpy(static_cast<void*>(&theirs), bytes.data(), sizeof theirs);
+    all.push_back(theirs);
+  }
+  return all;
+}
 
 // The world of one process: each operation returns what it was given.
 class SingleProcess final : public RankExchange {

@@ -20,20 +20,11 @@
 
 #include "sim/core/errors.h"
 #include "sim/core/grid.h"
+#include "sim/core/solver_statistics.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/io/checkpoint.h"
 
 namespace snowsim {
-
-// What a rank sent over the steps so far: the halo nodes, the particles that left its slab, and
-// the bytes of both.
-struct RankTraffic {
-  long steps = 0;
-  long halo_nodes = 0, halo_bytes = 0;
-  long particles_sent = 0, particle_bytes = 0;
-  long rebalances = 0;  // the slabs cut anew
-  long moved_cuts = 0;  // ... of which so many moved a cut
-};
 
 template <int D>
 class SlabDecomposition {
@@ -56,7 +47,6 @@ class SlabDecomposition {
     return world_.gatherToFirst(mine);
   }
   // Every rank's traffic, in rank order, on every rank.
-  std::vector<RankTraffic> everyRanksTraffic() const { return gatherEach(traffic_); }
 
   // particles: the whole scene, alike on every rank; cuts the slabs and keeps this rank's.
   template <class P>

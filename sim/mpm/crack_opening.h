@@ -21,6 +21,8 @@
 
 #include "sim/core/grid.h"
 #include "sim/core/stencil.h"
+#include "sim/mpm/mpm_particles.h"
+#include "sim/mpm/snow_material.h"
 #include "sim/parallel/zero_page_allocator.h"
 
 namespace snowsim {
@@ -245,6 +247,118 @@ class CrackOpening {
   std::vector<V> gradient_;  // per particle, this step's
   std::vector<char> near_damage_;
   T friction_;
+};
+
+// MLS's affine momentum of particle p, which its scatter spreads with m_p v_p:
+// A_p = m_p C_p + dt D^-1 (-V_p^0 tau_p), the affine part of APIC and the force of eq. 8 in one
+// (Hu et al. 2018, section 5.1).
+template <int D, class T>
+Mat<D, T> mlsAffineMomentum(const MpmParticles<D, T>& particles, int p, T dt, T inertia_inverse) {
+  const T V0 = particles.volume[p];
+  const Mat<D, T> stress = V0 > 0 ? Mat<D, T>(-V0 * particles.tau[p].matrix()) : Mat<D, T>::Zero();
+  return particles.mass[p] * particles.C[p] + (dt * inertia_inverse) * stress;
+}
+
+// How a step transfers to and from the grid's nodes, as a part of the step (MpmSolver::stepWith).
+// One velocity a node: every particle scatters and gathers with the plain transfers, and each node
+// meets the colliders.
+template <int D, class T>
+struct OneVelocityPerNode {
+  using V = Vec<D, T>;
+  template <class Schedule>
+  void findSides(Schedule&) {}
+  template <class PartialGrid, class Plain>
+  void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
+    plain(p, g);
+  }
+  // 5 for node k of mass m and velocity v.
+  template <class Collide>
+  void collide(int, T m, V& v, T, const V&, Collide&& collide) const {
+    if (m > 0) collide(v);
+  }
+  template <class Plain>
+  void gather(int p, Plain&& plain) const {
+    plain(p);
+  }
+};
+
+// With mpm.open_cracks once some snow is damaged: the damage field and the sides first; then near
+// damage the scatter, the node update and the gather with CrackOpening's fields, elsewhere the
+// plain transfers. MLS only.
+template <int D, class T, class Kernel>
+class OpenCracks {
+ public:
+  using V = Vec<D, T>;
+  using M = Mat<D, T>;
+
+  OpenCracks(CrackOpening<D, T>& cracks, MpmParticles<D, T>& particles,
+             const SnowMaterial& material, const GridGeometry<D>& grid,
+             const GridFields<D, T>& fields, T inertia_inverse)
+      : cracks_(cracks),
+        particles_(particles),
+        material_(material),
+        grid_(grid),
+        fields_(fields),
+        inertia_inverse_(inertia_inverse) {}
+
+  // The damage field, then each particle's damage gradient and each node's reference direction,
+  // which decide the sides of the scatter and the gather. The stages named "crack: ..." tell the
+  // cost estimate (app/cost_estimate.cpp) that these passes ran.
+  template <class Schedule>
+  void findSides(Schedule& schedule) {
+    using PartialGrid = typename Schedule::PartialGrid;
+    schedule.scatter(
+        [&](int p, PartialGrid& g) {
+          cracks_.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],
+                                                 1 - strength(p), g.colour);
+        },
+        "crack: damage");
+    schedule.forScatteredNodes("crack: damage field", [&](int k) { cracks_.sumDamage(k); });
+    schedule.scatter(
+        [&](int p, PartialGrid& g) {
+          cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
+                                                g.colour);
+        },
+        "crack: gradients");
+    schedule.forScatteredNodes("crack: sides", [&](int k) { cracks_.sumReference(k); });
+  }
+
+  // 1 + 3: into each node's side.
+  template <class PartialGrid, class Plain>
+  void scatter(int p, PartialGrid& g, T dt, Plain&& plain) const {
+    if (!cracks_.nearDamage(p)) return plain(p, g);
+    const T m = particles_.mass[p];
+    const M A = mlsAffineMomentum(particles_, p, dt, inertia_inverse_);
+    cracks_.template scatter<Kernel>(grid_, particles_.x[p], p, failed(p), m,
+                                     V(m * particles_.v[p]), A, g.mass.data(), g.momentum.data(),
+                                     g.colour);
+  }
+  // 4, 5 after side 0's velocity and gravity: the other fields', the fields' contact where they
+  // approach, then the collisions.
+  template <class Collide>
+  void collide(int k, T m, V& v, T dt, const V& gravity, Collide&& collide) {
+    cracks_.updateNode(k, m, v, dt, gravity, collide);
+  }
+  // 8: from each node's side.
+  template <class Plain>
+  void gather(int p, Plain&& plain) {
+    if (!cracks_.nearDamage(p)) return plain(p);
+    M B;
+    particles_.v[p] = cracks_.template gather<Kernel>(grid_, particles_.x[p], p, failed(p),
+                                                      fields_.velocity.data(), B);
+    particles_.C[p] = inertia_inverse_ * B;
+  }
+
+ private:
+  T strength(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]); }
+  bool failed(int p) const { return strength(p) <= 0; }  // no strength left
+
+  CrackOpening<D, T>& cracks_;
+  MpmParticles<D, T>& particles_;
+  const SnowMaterial& material_;
+  const GridGeometry<D>& grid_;
+  const GridFields<D, T>& fields_;  // side 0 of every node, the solver's grid
+  T inertia_inverse_;
 };
 
 }  // namespace snowsim

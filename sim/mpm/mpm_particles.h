@@ -3,6 +3,7 @@
 // the particles reorders every array.
 #pragma once
 
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -10,6 +11,18 @@
 #include "sim/mpm/snow_material.h"
 
 namespace snowsim {
+
+// The particles in the precision T of a solver's state.
+template <class T, int D>
+Particles<D, T> inPrecision(Particles<D> particles) {
+  if constexpr (std::is_same_v<T, Real>) {
+    return particles;
+  } else {
+    Particles<D, T> converted;
+    convertParticles(particles, converted);
+    return converted;
+  }
+}
 
 // T: the scalar of the state, double or float (mpm.precision).
 template <int D, class T = Real>

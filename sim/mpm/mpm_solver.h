@@ -1,11 +1,13 @@
 // MPM snow (Stomakhin, Schroeder, Chai, Teran, Selle 2013, "A Material Point Method for Snow
 // Simulation"), explicit symplectic Euler or the paper's semi-implicit solve, PIC/FLIP, APIC or
-// MLS-MPM transfers, quadratic or cubic B-splines. step() is the paper's section 4 list of
+// MLS-MPM transfers, quadratic or cubic B-splines. stepWith() is the paper's section 4 list of
 // stages; each stage is a per-particle or per-node function below, and how they run over threads
-// (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/). The state
-// and the arithmetic of the explicit step are in the precision T, double or float
-// (mpm.precision); what the solver hands out is in double, but for snapshots, which it writes from
-// its own arrays.
+// (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/). The
+// optional features enter the step as parts chosen once per step: the crack opening's transfers
+// (sim/mpm/crack_opening.h), auto-sleep (sim/mpm/auto_sleep.h) and the other MPI ranks
+// (sim/distributed/rank_state.h). The state and the arithmetic of the explicit step are in the
+// precision T, double or float (mpm.precision); what the solver hands out is in double, but for
+// snapshots, which it writes from its own arrays.
 #pragma once
 
 #include <limits>
@@ -15,9 +17,11 @@
 #include <vector>
 
 #include "sim/core/collider.h"
+#include "sim/core/collider_screen.h"
 #include "sim/core/grid.h"
 #include "sim/core/stencil.h"
-#include "sim/distributed/slab_decomposition.h"
+#include "sim/distributed/rank_state.h"
+#include "sim/mpm/auto_sleep.h"
 #include "sim/mpm/crack_opening.h"
 #include "sim/mpm/implicit_solve.h"
 #include "sim/mpm/mpm_particles.h"
@@ -49,9 +53,9 @@ class MpmSolver final : public Solver<D> {
     putParticles(outputParticles(), scene, snapshot);
   }
   void describe(Snapshot& snapshot) const override;
-  SolveTally implicitSolves() const override { return solves_; }
-  SleepTally autoSleep() const override { return sleep_tally_; }
-  std::vector<RankTraffic> rankTraffic() const override { return slabs_.everyRanksTraffic(); }
+  SolverStatistics statistics() const override {
+    return {solves_, sleeper_ ? sleeper_->tally() : SleepTally{}, ranks_.slabs().traffic()};
+  }
 
   const GridGeometry<D>& grid() const { return grid_; }
   const GridFields<D, T>& fields() const { return fields_; }
@@ -72,9 +76,7 @@ class MpmSolver final : public Solver<D> {
   // scattering again (not checkpointed: counted from construction or resume).
   long keptScatters() const { return schedule_.keptScatters(); }
   // Auto-sleep: whether particle p (in the order of particles()) is asleep after the last step.
-  bool asleep(int p) const {
-    return params_.auto_sleep.enabled && particles_.calm_steps[p] >= params_.auto_sleep.steps;
-  }
+  bool asleep(int p) const { return sleeper_ && sleeper_->asleep(particles_.calm_steps[p]); }
   const SnowMaterial& material() const { return material_; }
   // The colliders where they were at the start of the last step.
   const std::vector<Collider<D>>& colliders() const { return colliders_; }
@@ -97,7 +99,7 @@ class MpmSolver final : public Solver<D> {
   long binnings() const { return schedule_.binnings(); }
   // The split across MPI ranks (one rank when not launched by mpirun): this rank's slab, and what
   // it sent to the others.
-  const SlabDecomposition<D>& slabs() const { return slabs_; }
+  const SlabDecomposition<D>& slabs() const { return ranks_.slabs(); }
   // This rank's particles, in the order it stores them (all of them on one rank).
   int ownParticles() const { return particles_.size(); }
 
@@ -121,26 +123,24 @@ class MpmSolver final : public Solver<D> {
   void checkDivergence(Real dt) const override;
   void saveSolverState(StateWriter& out) const override;
   void loadSolverState(StateReader& in) override;
-  // What this rank holds; under MPI the checkpoint holds each rank's in turn.
+  // What this rank holds; under MPI the checkpoint holds each rank's in turn (RankState).
   void saveRankState(StateWriter& out) const;
   void loadRankState(StateReader& in);
   // Every rank's particles in the order of their ids on rank 0, once per step that asks, none on
   // the other ranks (this process's when not distributed): what the output sees.
-  const MpmParticles<D, T>& outputParticles() const;
-  template <class Transfer, class Kernel>
-  void stepWith(T dt);
-  // The MLS step with mpm.open_cracks: the damage field and the sides before the scatter, and
-  // each stage with the crack opening's fields beside the grid's (sim/mpm/crack_opening.h).
-  template <class Kernel>
-  void stepWithCracks(T dt);
-  // Whether particle p has no strength left (material.fracture_strain), and its damage.
-  bool failed(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]) <= 0; }
-  T damage(int p) const { return 1 - strengthLeft<T>(material_, particles_.J_P[p]); }
-  // 1 + 3 and 8 of MLS with the crack opening's sides.
-  template <class Kernel>
-  void scatterParticleWithCracks(int p, PartialGrid& g, T dt) const;
-  template <class Kernel>
-  void gatherVelocityWithCracks(int p);
+  const MpmParticles<D, T>& outputParticles() const {
+    return ranks_.output(particles_, this->steps());
+  }
+  // f(opening, sleep) with this step's parts: the crack opening's transfers once some snow is
+  // damaged (MLS only), else one velocity a node; auto-sleep's, else NoSleep.
+  template <class Transfer, class Kernel, class F>
+  void withParts(F&& f);
+  SleepStep<D, T> sleepStep() {
+    return sleeper_->step(particles_.calm_steps, grid_, fields_, colliders_, colliders_move_);
+  }
+  // The step: stages 1-10 of the paper's section 4 with the parts given.
+  template <class Transfer, class Kernel, class Opening, class Sleep>
+  void stepWith(T dt, Opening& opening, Sleep& sleep);
 
   // The J_P a points body's file gives (a run continued from its frame); the elastic part starts
   // unstrained, as the file does not hold F_E.
@@ -149,26 +149,22 @@ class MpmSolver final : public Solver<D> {
   // 1 + 3. Mass and momentum (eq. 1) and the force (eq. 7) of one particle into a partial grid.
   template <class Transfer, class Kernel>
   void scatterParticle(int p, PartialGrid& g, T dt) const;
-  // The same, compiled for AVX2 and for AVX-512, called where vectorIsa() says the processor has
-  // them. The same arithmetic (no contraction into fused multiply-adds), so the same results.
-  template <class Transfer, class Kernel>
-  SNOWSIM_TARGET_AVX2 void scatterParticleAvx2(int p, PartialGrid& g, T dt) const;
-  template <class Transfer, class Kernel>
-  SNOWSIM_TARGET_AVX512 void scatterParticleAvx512(int p, PartialGrid& g, T dt) const;
-  template <class Transfer, class Kernel>  // the build for isa
-  void scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const;
   // 2. First step only: rho_p^0 and V_p^0 from the grid (section 4 step 2).
   template <class Kernel>
   void estimateVolume(int p);
   // 8. v_p (PIC/FLIP, APIC or MLS) and its velocity gradient.
   template <class Transfer, class Kernel>
   void gatherVelocity(int p);
-  template <class Transfer, class Kernel>  // as scatterParticleAvx2 and Avx512
-  SNOWSIM_TARGET_AVX2 void gatherVelocityAvx2(int p);
+  // 1 + 3 and 8 in the build for isa (runFor): one build of each per transfer and kernel, which
+  // every step's parts share.
   template <class Transfer, class Kernel>
-  SNOWSIM_TARGET_AVX512 void gatherVelocityAvx512(int p);
-  template <class Transfer, class Kernel>  // the build for isa
-  void gatherVelocityOn(VectorIsa isa, int p);
+  void scatterParticleOn(VectorIsa isa, int p, PartialGrid& g, T dt) const {
+    runFor(isa, [&] { scatterParticle<Transfer, Kernel>(p, g, dt); });
+  }
+  template <class Transfer, class Kernel>
+  void gatherVelocityOn(VectorIsa isa, int p) {
+    runFor(isa, [&] { gatherVelocity<Transfer, Kernel>(p); });
+  }
   // 7. F_E <- (I + dt grad v) F_E (eq. 10).
   void trialDeformation(int p, T dt);
   // 7, then: plasticity (eqs. 11-12) and hardening (eq. 8) of particles ps, in 3D eight at a time
@@ -179,6 +175,9 @@ class MpmSolver final : public Solver<D> {
   // tau += sign times the damper's stress of C (material.viscosity): 1 after the return
   // mapping, -1 as the particle falls asleep and C stops.
   void addDamperStress(int p, T sign);
+  // Auto-sleep: particle p falls asleep at rest, and its slow drift and its affine velocity stop
+  // feeding the grid's momentum, and the damper's stress of that velocity gradient its forces.
+  void fallAsleep(int p);
   void collideParticle(int p);  // 9. particle-based body collisions (section 8)
   void advect(int p, T dt);     // 10. x += dt v, kept out of colliders and in the domain
 
@@ -187,8 +186,7 @@ class MpmSolver final : public Solver<D> {
   void velocityFromMomentum(int k);  // 4. v_i = momentum / m_i
   template <class Transfer>
   void accelerate(int k, T dt);           // 4. v* = v + dt f / m + dt g (eq. 8 explicit)
-  void collideNode(int k);                // 5. grid-based body collisions (section 8)
-  void collideAtNode(int k, V& v) const;  // 5 for a velocity v at node k
+  void collideAtNode(int k, V& v) const;  // 5. grid-based body collisions (section 8)
 
   // 5 + 6, semi-implicit: collide v*, then solve for v (section 9).
   void solveImplicitVelocities(Real dt);
@@ -213,34 +211,13 @@ class MpmSolver final : public Solver<D> {
   };
   // 8, 7, 9, 10 for a batch of the particle pass, each particle measured into m; shares[i] is
   // batch[i]'s energy.
-  template <class Transfer, class Kernel>
-  void moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt, VectorIsa isa);
-  // Auto-sleep: whether particle p sleeps through this step (waking it if its stencil or a
-  // collider moves), and after it moved from x_before, whether it has rested long enough to
-  // fall asleep.
-  template <class Kernel>
-  bool sleepsThrough(int p);
-  template <class Kernel>
-  void restOrStir(int p, const V& x_before);
-  // For the scatter (ParticleGridSchedule::scatter): 0 while particle p moves; 1 once it fell
-  // asleep (no velocity, no affine velocity, a deformation that stays); 2 once it also slept
-  // through the last particle pass, so that nothing of it changed since the last scatter.
-  // calm_steps counts to the sleep steps while it rests awake, and is one more once it slept.
-  int stillness(int p) const {
-    const int calm = particles_.calm_steps[p], steps = params_.auto_sleep.steps;
-    return calm > steps ? 2 : calm == steps ? 1 : 0;
-  }
-  // Auto-sleep: whether a node of the stencil at x moves faster than the sleep speed, and whether
-  // a moving collider is within a cell of x.
-  template <class Kernel>
-  bool stencilMoves(const V& x) const;
-  bool touchedByMovingCollider(const V& x) const;
-  // Measures particle p into its batch's maxima and returns its energy. Inlined, so that the
-  // maxima stay in registers.
+  template <class Transfer, class Kernel, class Opening, class Sleep>
+  void moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt, VectorIsa isa,
+                     Opening& opening, const Sleep& sleep);
+  // Measures particle p into its batch's maxima and returns its energy.
   [[gnu::always_inline]] inline Real measure(int p, BatchMaxima& m) const;
   void measureParticles();  // the speeds and energy of the current state
   void collectMeasures();   // after each particle pass
-  void countSleepers();     // after each step's particle pass, with auto-sleep
 
   MpmParams params_;
   SnowMaterial material_;
@@ -251,48 +228,18 @@ class MpmSolver final : public Solver<D> {
   T inv_h_;            // 1 / h
   T inertia_inverse_;  // D_p^-1 of APIC for the scene's kernel (transfer_scheme.h)
   GridFields<D, T> fields_;
-  // The colliders where they are at the start of the step.
+  // The colliders where they are at the start of the step, and their screens.
   std::vector<Collider<D>> colliders_;
-  // Per collider, a cheap test that passes over it for a point well clear of it (Collider::phi
-  // is a call and a rotation), set with the colliders' poses: a half space's plane in world
-  // coordinates, a sphere's, a box's or a mesh's world-axis bounding box, each with a margin far
-  // beyond the round-off between the two ways of computing the distance, so a point it passes
-  // over is one phi puts outside. Drums are always tested (their box spans every axis).
-  struct ColliderScreen {
-    Vec<D> normal = Vec<D>::Zero();
-    Real offset = 0, margin = 0;
-    bool half_space = false;
-    Vec<D> lo, hi;  // bounding box, margin included
-  };
-  std::vector<ColliderScreen> screens_;
-  void placeScreens();
-  bool mayTouch(int c, const Vec<D>& x) const {
-    const ColliderScreen& s = screens_[c];
-    if (s.half_space) return s.normal.dot(x) - s.offset <= s.margin;
-    // Written so that a NaN position passes, and meets phi as it did before the screen.
-    return !((x.array() < s.lo.array()).any() || (x.array() > s.hi.array()).any());
-  }
-  // Most particles are well inside the domain: a box test clears them of every axis-aligned half
-  // space (the domain walls) at once, with the screens' margins, so only the colliders the box
-  // does not cover are screened one by one. Set with the screens.
-  Vec<D> clear_lo_, clear_hi_;
-  std::vector<int> every_collider_, uncovered_colliders_;
-  const std::vector<int>& collidersNear(const Vec<D>& x) const {
-    const bool clear =
-        (x.array() > clear_lo_.array()).all() && (x.array() < clear_hi_.array()).all();
-    return clear ? uncovered_colliders_ : every_collider_;
-  }
+  ColliderScreens<D> screens_;
   Real collider_speed_ = 0;  // the fastest any point of a collider moves (fastestColliderSpeed)
   // The damper's signal speed 4 eta / (rho h): an explicit step resolves the damper's grid-scale
   // rate as it does the elastic wave (docs/mpm.md).
   Real viscous_speed_ = 0;
   std::vector<Real> body_density_;  // rest density of each body of the scene
   Schedule schedule_;
+  RankState<D, MpmParticles<D, T>> ranks_;
   std::unique_ptr<CrackOpening<D, T>> cracks_;  // with mpm.open_cracks
-  bool crack_step_ = false;  // this step runs with the crack opening's fields (stepWithCracks)
-  mutable SlabDecomposition<D> slabs_;  // a gather for output reads every rank, also in const
-  mutable MpmParticles<D, T> gathered_;
-  mutable long gathered_at_step_ = -1;
+  std::unique_ptr<AutoSleeper> sleeper_;        // with mpm.auto_sleep
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
   KrylovResult last_solve_;
@@ -303,14 +250,12 @@ class MpmSolver final : public Solver<D> {
   Real fastest_signal_ = 0;  // max (c_p + |v_p|), c_p the P-wave speed
   bool finite_ = true;       // every position and velocity finite
   Real energy_ = 0;          // kinetic + gravitational (J)
-  SleepTally sleep_tally_;
   Real initial_energy_ = 0;
   Real total_mass_ = 0;
   int total_particles_ = 0;      // of every rank
   bool colliders_move_ = false;  // a moving collider adds energy: no energy check then
-  // How far the energy may grow before a step counts as blown up. Measured on the snowball drop
-  // at fixed dt (docs/mpm.md): stable steps keep it within 0.1%, a step 1.6x beyond the stable one
-  // grows it 7.5% as the ball flies apart, 1.8x doubles it.
+  // How far the energy may grow before a step counts as blown up: stable steps keep it far
+  // below, unstable ones grow it well past (docs/mpm.md measures both).
   static constexpr Real kEnergyGrowthLimit = 1.05;
   // A float solver's particles in double, and the step they were converted at.
   mutable Particles<D> particles_in_double_;
@@ -320,5 +265,17 @@ class MpmSolver final : public Solver<D> {
   Real limit_when_exceeded_ = std::numeric_limits<Real>::infinity();
   long step_when_exceeded_ = -1;
 };
+
+// Inlined where the particle passes call it, so that the maxima stay in registers.
+template <int D, class T>
+inline Real MpmSolver<D, T>::measure(int p, BatchMaxima& m) const {
+  const T v = particles_.v[p].norm();
+  m.finite = m.finite && std::isfinite(v) && particles_.x[p].allFinite();
+  m.speed = std::max(m.speed, v);
+  m.signal = std::max(m.signal, pWaveSpeed(lame(p), restDensity(p)) + v);
+  // Kinetic plus gravitational energy, the latter from the origin (collectMeasures shifts it).
+  return particles_.mass[p] *
+         (T(0.5) * particles_.v[p].squaredNorm() - gravity_.dot(particles_.x[p]));
+}
 
 }  // namespace snowsim

@@ -6,6 +6,7 @@
 #include "sim/core/errors.h"
 #include "sim/core/pic_flip.h"
 #include "sim/core/stencil.h"
+#include "sim/io/checkpoint.h"
 
 namespace snowsim {
 

@@ -98,8 +98,8 @@ TEST(AutoSleep, BlockAtRestFallsAsleepAndStaysPut) {
   runUntil(asleep, 0.3);
   runUntil(awake, 0.3);
   EXPECT_EQ(asleepShare(asleep, 0, [](const Vec<2>&) { return true; }), 1);
-  EXPECT_EQ(asleep.autoSleep().particles, asleep.particles().size());
-  EXPECT_EQ(asleep.autoSleep().asleep_now, asleep.particles().size());
+  EXPECT_EQ(asleep.statistics().auto_sleep.particles, asleep.particles().size());
+  EXPECT_EQ(asleep.statistics().auto_sleep.asleep_now, asleep.particles().size());
   // Where the awake block is, within half a millimetre: the awake block rings elastically under
   // gravity at up to 2 cm/s, about 0.3 mm apart from the sleeping one.
   const Particles<2>&a = asleep.particles(), &b = awake.particles();
@@ -121,7 +121,7 @@ TEST(AutoSleep, ASleepingDampedBlockKeepsOnlyItsElasticStress) {
   j["material"] = {{"viscosity", 16}};
   auto solver = makeSolver(j);
   runUntil(solver, 0.3);
-  ASSERT_EQ(solver.autoSleep().asleep_now, solver.particles().size());
+  ASSERT_EQ(solver.statistics().auto_sleep.asleep_now, solver.particles().size());
   Real largest = 0, furthest = 0;
   for (size_t p = 0; p < solver.stress().size(); ++p) {
     const Mat<2>& F = solver.elasticGradient()[p];
@@ -165,7 +165,7 @@ TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
   const Json j = pileAndBall();
   auto through = makeSolver(j);
   runUntil(through, 0.2);  // the pile asleep, the ball about to land
-  ASSERT_GT(through.autoSleep().asleep_now, 0);
+  ASSERT_GT(through.statistics().auto_sleep.asleep_now, 0);
   StateWriter saved;
   through.saveState(saved);
   auto resumed = makeSolver(j);
@@ -182,8 +182,8 @@ TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
   int same_sleep = 0;
   for (int i = 0; i < a.size(); ++i) same_sleep += through.asleep(i) == resumed.asleep(i);
   EXPECT_EQ(same_sleep, a.size());
-  EXPECT_EQ(through.autoSleep().asleep_steps, resumed.autoSleep().asleep_steps);
-  EXPECT_EQ(through.autoSleep().particle_steps, resumed.autoSleep().particle_steps);
+  EXPECT_EQ(through.statistics().auto_sleep.asleep_steps, resumed.statistics().auto_sleep.asleep_steps);
+  EXPECT_EQ(through.statistics().auto_sleep.particle_steps, resumed.statistics().auto_sleep.particle_steps);
 }
 
 // 16 particles per cell: over the 2048 that take the threaded path.
@@ -193,10 +193,10 @@ THREADED_TEST(AutoSleep, SameResultsOnOneAndTwoThreads) {
   ASSERT_GT(one.particles().size(), 2048);
   runUntil(one, 0.23);
   runUntil(two, 0.23);
-  ASSERT_GT(one.autoSleep().asleep_now, 0);
-  ASSERT_LT(one.autoSleep().asleep_now, one.particles().size());  // the ball has woken some
+  ASSERT_GT(one.statistics().auto_sleep.asleep_now, 0);
+  ASSERT_LT(one.statistics().auto_sleep.asleep_now, one.particles().size());  // the ball has woken some
   EXPECT_TRUE(one.particles().positionsById() == two.particles().positionsById());
-  EXPECT_EQ(one.autoSleep().asleep_steps, two.autoSleep().asleep_steps);
+  EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
 }
 
 // In 3D, a block of particles that all slept through the last step adds the scatter it kept
@@ -211,7 +211,7 @@ TEST(AutoSleep, StillBlocksHoldTheBallWhereTheAwakePileDoes) {
   runUntil(asleep, 0.2);
   EXPECT_EQ(asleepShare(asleep, 0, all), 1);
   const long kept_before_landing = asleep.keptScatters();
-  const long asleep_before_landing = asleep.autoSleep().asleep_steps;
+  const long asleep_before_landing = asleep.statistics().auto_sleep.asleep_steps;
   EXPECT_GT(kept_before_landing, 0);
   runUntil(asleep, 0.45);
   runUntil(awake, 0.45);
@@ -220,7 +220,7 @@ TEST(AutoSleep, StillBlocksHoldTheBallWhereTheAwakePileDoes) {
   // walls (x and z cells 12-15), which never keep theirs: measured 38% of the sleeping
   // particles' scatters.
   EXPECT_GT(asleep.keptScatters() - kept_before_landing,
-            0.3 * (asleep.autoSleep().asleep_steps - asleep_before_landing));
+            0.3 * (asleep.statistics().auto_sleep.asleep_steps - asleep_before_landing));
   const Vec<3> on_sleeping = centre(asleep.particles(), 1), on_awake = centre(awake.particles(), 1);
   EXPECT_LT((on_sleeping - on_awake).norm(), 1e-3);
   EXPECT_GT(on_sleeping[1], 0.04 + 0.015);  // on the pile, not sunk into it
@@ -281,8 +281,8 @@ TEST(AutoSleep, StillBlocksGiveTheSameResultsOnOneAndTwoThreadsAndAfterAResume) 
   const std::vector<Vec<3>> x = one.particles().positionsById();
   EXPECT_TRUE(x == two.particles().positionsById());
   EXPECT_TRUE(x == resumed.particles().positionsById());
-  EXPECT_EQ(one.autoSleep().asleep_steps, two.autoSleep().asleep_steps);
-  EXPECT_EQ(one.autoSleep().asleep_steps, resumed.autoSleep().asleep_steps);
+  EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
+  EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, resumed.statistics().auto_sleep.asleep_steps);
 }
 
 TEST(AutoSleep, SceneFieldsAreCheckedAndWrittenBack) {

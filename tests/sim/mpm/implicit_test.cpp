@@ -390,7 +390,7 @@ TEST(SemiImplicit, TallyCountsEverySolveAndTheUnconverged) {
     unconverged += solve.converged ? 0 : 1;
     most = std::max(most, solve.iterations);
   }
-  const SolveTally tally = solver.implicitSolves();
+  const SolveTally tally = solver.statistics().implicit_solves;
   EXPECT_EQ(tally.solves, 25);
   EXPECT_EQ(tally.iterations, iterations);
   EXPECT_EQ(tally.unconverged, unconverged);
@@ -401,7 +401,7 @@ TEST(SemiImplicit, TallyCountsEverySolveAndTheUnconverged) {
   const Scene explicit_scene = loadScene(path, {});
   MpmSolver<3> explicit_solver(explicit_scene, sampleBodies<3>(explicit_scene));
   explicit_solver.step(1e-4);
-  EXPECT_EQ(explicit_solver.implicitSolves().solves, 0);
+  EXPECT_EQ(explicit_solver.statistics().implicit_solves.solves, 0);
 }
 
 }  // namespace

@@ -659,7 +659,8 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
   summary["quality"] = options.quality;
   summary["snowsim"] = {{"version", SNOWSIM_VERSION}, {"commit", SNOWSIM_COMMIT}};
   summary["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
-  if (world.ranks() > 1) summary["ranks"] = rankSummary(gatherEach(world, simulation->statistics().rank_traffic));
+  if (world.ranks() > 1)
+    summary["ranks"] = rankSummary(gatherEach(world, simulation->statistics().rank_traffic));
   if (stop_signal) summary["interrupted_by_signal"] = stop_signal;
   if (writes && !scene.colliders.empty())
     writeFileAtomically(options.out + "/colliders.json",

@@ -93,7 +93,7 @@ TEST(SlabDecomposition, InOneProcessEveryOperationLeavesItsInputAsItIs) {
   all.hi = kGrid.nodes;
   slabs.sumHalo(fields, all, true);
   EXPECT_EQ(fields.mass, std::vector<Real>(kGrid.nodeCount(), 1));
-  const std::vector<RankTraffic> traffic = slabs.everyRanksTraffic();
+  const std::vector<RankTraffic> traffic = slabs.gatherEach(slabs.traffic());
   ASSERT_EQ(traffic.size(), 1u);
   EXPECT_EQ(traffic[0].halo_nodes, 0);
   EXPECT_EQ(traffic[0].steps, 0);

@@ -182,8 +182,10 @@ TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
   int same_sleep = 0;
   for (int i = 0; i < a.size(); ++i) same_sleep += through.asleep(i) == resumed.asleep(i);
   EXPECT_EQ(same_sleep, a.size());
-  EXPECT_EQ(through.statistics().auto_sleep.asleep_steps, resumed.statistics().auto_sleep.asleep_steps);
-  EXPECT_EQ(through.statistics().auto_sleep.particle_steps, resumed.statistics().auto_sleep.particle_steps);
+  EXPECT_EQ(through.statistics().auto_sleep.asleep_steps,
+            resumed.statistics().auto_sleep.asleep_steps);
+  EXPECT_EQ(through.statistics().auto_sleep.particle_steps,
+            resumed.statistics().auto_sleep.particle_steps);
 }
 
 // 16 particles per cell: over the 2048 that take the threaded path.
@@ -194,7 +196,8 @@ THREADED_TEST(AutoSleep, SameResultsOnOneAndTwoThreads) {
   runUntil(one, 0.23);
   runUntil(two, 0.23);
   ASSERT_GT(one.statistics().auto_sleep.asleep_now, 0);
-  ASSERT_LT(one.statistics().auto_sleep.asleep_now, one.particles().size());  // the ball has woken some
+  ASSERT_LT(one.statistics().auto_sleep.asleep_now,
+            one.particles().size());  // the ball has woken some
   EXPECT_TRUE(one.particles().positionsById() == two.particles().positionsById());
   EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
 }

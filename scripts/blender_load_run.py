@@ -1,12 +1,12 @@
 """Loads a snowsim run into Blender (3.4 or later; tested with Debian's 3.4) as one animated object.
 
-    blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb]
+    blender --python scripts/blender_load_run.py -- RUN_DIR [--vdb] [--bake]
     blender -b --python-exit-code 1 --python scripts/blender_load_run.py --python-expr
         "import bpy, os; bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath('run.blend'))"
         -- RUN_DIR --vdb
 
 (the second, on one line, without a display: the loaded run saved to run.blend; a run that
-cannot be loaded ends Blender with exit code 1 and saves nothing)
+cannot be loaded, or an unknown option, ends Blender with exit code 1 and saves nothing)
 
 or, in Blender's Text Editor, set RUN_DIR below and press Run Script.
 
@@ -26,16 +26,27 @@ A Geometry Nodes modifier, `snowsim_points` ("Mesh to Points" with Radius = Name
 points). snowsim's y-up frames get the object turned +90 degrees about x, so the snow
 stands on Blender's z-up ground; frames written with --z-up need no turn.
 
+With --bake, each frame's PLY becomes its own mesh object, `snowsim_particles_NNNNN`, under an
+empty `snowsim_particles`, visible from its frame until the next (keyframed hide_viewport and
+hide_render): every frame is in the file, which plays with no script, at about 44 bytes per
+particle and frame.
+
 With --vdb, the run's frame_NNNNN.vdb files (snowsim run --vdb) become a volume object,
 `snowsim_volume`, with the grids `density` and `velocity`, turned the same way.
 
 The run's colliders (colliders.json: boxes, spheres, planes, drums and meshes, posed at every
 frame) become objects under an empty, `snowsim_colliders`, turned the same way, keyframed frame by
-frame. Loaded into Blender's unsaved startup scene, the default cube goes and the camera is
-aimed at the snow. Loading the same run again updates its objects rather than adding more.
+frame. The domain's floor becomes a plane, `snowsim_ground`, at Blender's z = 0. Loaded into
+Blender's unsaved startup scene, the default cube goes, the camera takes the scene's placed camera
+(run.json's resolved_scene) or frames the snow from its preset's side, or another that no collider
+blocks, and Cycles renders without a denoiser (Debian's Blender has none). Loading the same run
+again updates its objects rather than adding more.
 
-A saved .blend file opened later needs the frame handler again (Blender does not store Python
-handlers in files): run this script with no run directory, which registers it and loads nothing.
+Blender does not store Python handlers in files: without --bake, the file keeps this script as a
+text block, `snowsim_frame_change.py`, registered to run when the file opens, which it does only
+where auto-run of Python scripts is allowed (Preferences > Save & Load > Auto Run Python Scripts,
+the "Allow Execution" button Blender shows, or `blender -y`); else the file shows its first frame
+throughout, until this script is run with no run directory (which registers the handler).
 """
 
 import json
@@ -64,6 +75,15 @@ ATTRIBUTES = [
     ("id", ("id",), "INT"),
 ]
 HANDLER_NAME = "snowsim_frame_change"
+# The command line's options after the run directory.
+OPTIONS = {
+    "--vdb": "the run's VDB frames as a volume object",
+    "--bake": "every frame's particles kept in the file: a saved file plays with no script",
+}
+# The text block of a loaded file: this script, set to register the handler only, which Blender
+# runs when it opens the file if auto-run of Python scripts is allowed.
+TEXT_NAME = "snowsim_frame_change.py"
+REGISTER_ONLY = globals().get("REGISTER_ONLY", False)
 
 
 def read_ply(path):
@@ -92,14 +112,8 @@ def read_ply(path):
 
 def ply_comment(path, key):
     """The value of a frame's `comment snowsim KEY VALUE` header line, or None."""
-    with open(path, "rb") as f:
-        for line in f:
-            words = line.decode("ascii", "replace").split()
-            if words[:3] == ["comment", "snowsim", key] and len(words) > 3:
-                return words[3]
-            if words[:1] == ["end_header"]:
-                return None
-    return None
+    words = ply_comment_words(path, key)
+    return words[0] if words else None
 
 
 def frame_files(run_dir, extension):
@@ -141,7 +155,8 @@ def snowsim_frame_change(scene, depsgraph=None):
     """Shows, on every object loaded from a run, the frame at or before the scene's frame."""
     for obj in scene.objects:
         run_dir = obj.get("snowsim_run")
-        if not run_dir or obj.type != "MESH":
+        # The particles: a run's mesh that shows a frame (not its ground).
+        if not run_dir or obj.type != "MESH" or "snowsim_frame_file" not in obj:
             continue
         files = frame_files(run_dir, "ply")
         if not files:
@@ -157,6 +172,27 @@ def register_handler():
     for h in [h for h in handlers if getattr(h, "__name__", "") == HANDLER_NAME]:
         handlers.remove(h)
     handlers.append(snowsim_frame_change)
+
+
+def install_text_block():
+    """Keeps this script in the file as a text block that runs on opening it: Blender does not
+    store Python handlers in files."""
+    path = globals().get("__file__", "")
+    if os.path.isfile(path):
+        with open(path) as f:
+            source = f.read()
+    else:  # run from Blender's Text Editor: the text block it ran from
+        text = bpy.data.texts.get(os.path.basename(path))
+        if text is None:
+            print("blender_load_run.py: the file will need this script to play", file=sys.stderr)
+            return
+        source = text.as_string()
+    text = bpy.data.texts.get(TEXT_NAME) or bpy.data.texts.new(TEXT_NAME)
+    text.clear()
+    text.write("# Written by blender_load_run.py. Run when the file opens (with auto-run of Python\n"
+               "# scripts allowed), it registers the handler that shows each frame's PLY.\n"
+               "REGISTER_ONLY = True\n" + source)
+    text.use_module = True
 
 
 def turn_to_z_up(obj, up):
@@ -182,19 +218,65 @@ def object_of_run(name, run_dir, kind):
     return None
 
 
-def load_particles(run_dir, scene, files, up):
-    first = next(iter(files.values()))
-    obj = object_of_run("snowsim_particles", run_dir, "MESH")
+def run_object(name, run_dir, scene, kind):
+    """The run's object `name`, made and linked the first time."""
+    obj = object_of_run(name, run_dir, kind)
     if obj is None:
-        obj = bpy.data.objects.new("snowsim_particles", bpy.data.meshes.new("snowsim_particles"))
+        data = {"MESH": bpy.data.meshes, "VOLUME": bpy.data.volumes}.get(kind)
+        obj = bpy.data.objects.new(name, data.new(name) if data is not None else None)
         scene.collection.objects.link(obj)
         obj["snowsim_run"] = run_dir
+    return obj
+
+
+def load_particles(run_dir, scene, files, up):
+    first = next(iter(files.values()))
+    obj = run_object("snowsim_particles", run_dir, scene, "MESH")
     turn_to_z_up(obj, up)
     show_frame(obj, first)
     if "snowsim_points" not in obj.modifiers:
         modifier = obj.modifiers.new("snowsim_points", "NODES")
         modifier.node_group = points_node_group()
     return obj
+
+
+def bake_particles(run_dir, scene, files, up):
+    """--bake: each frame's particles as a mesh object under the empty `snowsim_particles`,
+    visible from its frame until the next one (keyframed), so the file plays without a script."""
+    parent = run_object("snowsim_particles", run_dir, scene, "EMPTY")
+    turn_to_z_up(parent, up)
+    remove_objects(list(parent.children))
+    frames = list(files)
+    for i, (frame, path) in enumerate(files.items()):
+        name = "snowsim_particles_%05d" % frame
+        obj = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        scene.collection.objects.link(obj)
+        obj.parent = parent
+        obj["snowsim_frame"] = frame
+        show_frame(obj, path)
+        obj.modifiers.new("snowsim_points", "NODES").node_group = points_node_group()
+        keys = [(frame, False)]
+        if frame != frames[0]:
+            keys.insert(0, (frames[0], True))
+        if i + 1 < len(frames):
+            keys.append((frames[i + 1], True))
+        for key, hidden in keys:
+            obj.hide_viewport = obj.hide_render = hidden
+            obj.keyframe_insert("hide_viewport", frame=key)
+            obj.keyframe_insert("hide_render", frame=key)
+        for curve in obj.animation_data.action.fcurves:
+            for point in curve.keyframe_points:
+                point.interpolation = "CONSTANT"
+    return parent
+
+
+def remove_objects(objects):
+    for obj in objects:
+        remove_objects(list(obj.children))
+        data = obj.data
+        bpy.data.objects.remove(obj)
+        if data is not None and data.users == 0 and isinstance(data, bpy.types.Mesh):
+            bpy.data.meshes.remove(data)
 
 
 def points_node_group():
@@ -225,11 +307,7 @@ def points_node_group():
 
 def load_volume(run_dir, scene, files, up):
     first_frame, first = next(iter(files.items()))
-    obj = object_of_run("snowsim_volume", run_dir, "VOLUME")
-    if obj is None:
-        obj = bpy.data.objects.new("snowsim_volume", bpy.data.volumes.new("snowsim_volume"))
-        scene.collection.objects.link(obj)
-        obj["snowsim_run"] = run_dir
+    obj = run_object("snowsim_volume", run_dir, scene, "VOLUME")
     volume = obj.data
     volume.filepath = first
     volume.is_sequence = len(files) > 1
@@ -278,11 +356,7 @@ def load_colliders(run_dir, scene, up):
         return []
     with open(path) as f:
         frames = json.load(f)["frames"]
-    parent = object_of_run("snowsim_colliders", run_dir, "EMPTY")
-    if parent is None:
-        parent = bpy.data.objects.new("snowsim_colliders", None)
-        scene.collection.objects.link(parent)
-        parent["snowsim_run"] = run_dir
+    parent = run_object("snowsim_colliders", run_dir, scene, "EMPTY")
     turn_to_z_up(parent, up)
     skipped = []
     for i, collider in enumerate(frames[0]["colliders"] if frames else []):
@@ -343,38 +417,168 @@ def import_mesh(collider, name):
     return obj
 
 
-def frame_startup_scene(scene, particles, last_frame):
-    """In Blender's unsaved startup scene: the default cube goes, the camera looks at the snow of
-    the first frame (in the mesh now) and of the last."""
+def load_ground(run_dir, scene, first_file):
+    """The domain's floor (snowsim's y = 0, Blender's z = 0) as a plane, `snowsim_ground`,
+    reaching past the grid by its largest side so that a camera above it sees ground behind."""
+    cells = [float(c) for c in (ply_comment_words(first_file, "cells") or ["1", "1", "1"])]
+    h = float(ply_comment(first_file, "cell_size") or 0.01)
+    width, depth = cells[0] * h, (cells[2] if len(cells) > 2 and cells[2] > 0 else cells[0]) * h
+    margin = max(width, depth)
+    obj = run_object("snowsim_ground", run_dir, scene, "MESH")
+    mesh = obj.data
+    mesh.clear_geometry()
+    # snowsim's x and z as Blender's x and -y.
+    x0, x1, y0, y1 = -margin, width + margin, -depth - margin, margin
+    mesh.from_pydata([(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)], [], [(0, 1, 2, 3)])
+    mesh.update()
+    if not mesh.materials:
+        material = bpy.data.materials.get("snowsim_ground") or bpy.data.materials.new(
+            "snowsim_ground")
+        material.diffuse_color = (0.25, 0.26, 0.28, 1)  # darker than the snow, which stands out
+        material.use_nodes = True
+        shader = material.node_tree.nodes.get("Principled BSDF")
+        if shader:
+            shader.inputs["Base Color"].default_value = material.diffuse_color
+            shader.inputs["Roughness"].default_value = 0.9
+        mesh.materials.append(material)
+    return obj
+
+
+def ply_comment_words(path, key):
+    """All the values of a frame's `comment snowsim KEY ...` line, or None."""
+    with open(path, "rb") as f:
+        for line in f:
+            words = line.decode("ascii", "replace").split()
+            if words[:3] == ["comment", "snowsim", key]:
+                return words[3:]
+            if words[:1] == ["end_header"]:
+                return None
+    return None
+
+
+def to_blender(p):
+    """A point of snowsim's y-up world in Blender's z-up world: (x, y, z) -> (x, -z, y)."""
+    from mathutils import Vector
+    return Vector((p[0], -p[2], p[1]))
+
+
+# From the snow towards the camera in Blender's world: snowsim's presets (render/camera.cpp)
+# turned z up, then the same from the other sides, for a view a collider blocks.
+PRESET_DIRECTIONS = {
+    "three_quarter": (0.6, -1, 0.5), "front": (0, -1, 0.25), "side": (1, 0, 0.25), "top": (0, 0, 1),
+}
+OTHER_DIRECTIONS = [(0.55, -1, 0.45), (-0.6, -1, 0.5), (0.6, 1, 0.5), (-0.6, 1, 0.5),
+                    (-1, 0, 0.25), (0, 1, 0.25)]
+
+
+def frame_startup_scene(scene, run, files):
+    """In Blender's unsaved startup scene: the default cube goes, the camera takes the scene's
+    placed camera or frames the snow of the first and last frames from a side no collider
+    blocks, and Cycles renders without a denoiser (Debian's Blender has none)."""
     if bpy.data.filepath:
         return
     scene.render.engine = "CYCLES"  # EEVEE of Blender 3 draws no points
+    scene.cycles.samples = 64
+    scene.cycles.use_denoising = False
+    scene.cycles.use_preview_denoising = False
+    for layer in scene.view_layers:
+        if hasattr(layer, "cycles"):
+            layer.cycles.use_denoising = False
+    if "image" in run:
+        scene.render.resolution_x, scene.render.resolution_y = run["image"]
+        scene.render.resolution_percentage = 100
     cube = bpy.data.objects.get("Cube")
     if cube and cube.type == "MESH" and len(cube.data.vertices) == 8:
         bpy.data.objects.remove(cube)
     camera = scene.camera
-    if camera is None or not len(particles.data.vertices):
+    if camera is None:
         return
-    from mathutils import Vector
-    bpy.context.view_layer.update()
-    first = np.empty(3 * len(particles.data.vertices), np.float32)
-    particles.data.vertices.foreach_get("co", first)
-    last = read_ply(last_frame)
-    local = np.vstack([first.reshape(-1, 3), np.column_stack([last["x"], last["y"], last["z"]])])
-    world = local @ np.array(particles.matrix_world.to_3x3()).T
-    low = Vector(world.min(axis=0)) + particles.matrix_world.translation
-    high = Vector(world.max(axis=0)) + particles.matrix_world.translation
-    centre, reach = (low + high) / 2, max((high - low).length / 2, 0.01)
-    direction = Vector((0.55, -1.0, 0.45)).normalized()
-    distance = 2.2 * reach / math.tan(camera.data.angle / 2)
-    camera.location = centre + distance * direction
+    from mathutils import Matrix, Vector
+    placed = run.get("resolved_scene", {}).get("render", {}).get("camera", {})
+    camera.data.sensor_fit = "VERTICAL"
+    camera.data.angle = math.radians(placed.get("fov", 35))
+    up = Vector((0, 0, 1))
+    if "eye" in placed:
+        eye, target = to_blender(placed["eye"]), to_blender(placed["target"])
+        up = to_blender(placed.get("up", (0, 1, 0)))
+    else:
+        low, high = snow_box(files)
+        target = (low + high) / 2
+        eye = clear_view(scene, camera, low, high, placed.get("preset"))
+        if placed.get("preset") == "top":
+            up = Vector((0, 1, 0))
+    forward = (target - eye).normalized()
+    right = forward.cross(up).normalized()
+    camera.location = eye
     camera.rotation_mode = "QUATERNION"
-    camera.rotation_quaternion = (-direction).to_track_quat("-Z", "Y")
+    camera.rotation_quaternion = Matrix((right, right.cross(forward), -forward)).transposed() \
+        .to_quaternion()
+    distance = (target - eye).length
     camera.data.clip_start = distance / 1000
     camera.data.clip_end = distance * 100
 
 
-def load_run(run_dir, with_volume=False):
+def snow_box(files):
+    """The lowest and highest corners, in Blender's world, of the first and last frames' snow."""
+    points = []
+    for path in {next(iter(files.values())), next(reversed(files.values()))}:
+        columns = read_ply(path)
+        xyz = np.column_stack([columns["x"], columns["y"], columns["z"]]).astype(np.float64)
+        if ply_comment(path, "up") != "z":
+            xyz = np.column_stack([xyz[:, 0], -xyz[:, 2], xyz[:, 1]])
+        pad = float(columns["pscale"].max()) if "pscale" in columns and len(xyz) else 0.0
+        points += [xyz.min(axis=0) - pad, xyz.max(axis=0) + pad]
+    from mathutils import Vector
+    return Vector(np.min(points, axis=0)), Vector(np.max(points, axis=0))
+
+
+def clear_view(scene, camera, low, high, preset):
+    """The eye that frames the box (its eight corners in the image with a 10% margin) from the
+    preset's direction, or else from the first direction where the colliders and the ground hide
+    none of the box's centre and corners at the first and last frames (the fewest if all do)."""
+    from mathutils import Vector
+    centre = (low + high) / 2
+    corners = [Vector((a[0], b[1], c[2])) for a in (low, high) for b in (low, high)
+               for c in (low, high)]
+    aspect = scene.render.resolution_x / scene.render.resolution_y
+    tan_v = math.tan(camera.data.angle / 2) / 1.1
+    tan_h = tan_v * aspect
+    directions = [PRESET_DIRECTIONS[preset]] if preset in PRESET_DIRECTIONS else []
+    directions += OTHER_DIRECTIONS + list(PRESET_DIRECTIONS.values())
+    best, fewest = None, None
+    for d in directions:
+        back = Vector(d).normalized()
+        world_up = Vector((0, 1, 0)) if abs(back.z) > 0.99 else Vector((0, 0, 1))
+        right = world_up.cross(back).normalized()
+        up = back.cross(right)
+        distance = max([1e-3] + [(c - centre).dot(back) + max(abs((c - centre).dot(right)) / tan_h,
+                                                               abs((c - centre).dot(up)) / tan_v)
+                                 for c in corners])
+        eye = centre + distance * back
+        hidden = sum(hidden_points(scene, eye, [centre] + corners, frame)
+                     for frame in (scene.frame_start, scene.frame_end))
+        if fewest is None or hidden < fewest:
+            best, fewest = eye, hidden
+        if hidden == 0:
+            break
+    scene.frame_set(scene.frame_start)
+    return best
+
+
+def hidden_points(scene, eye, points, frame):
+    """How many of the points a face (a collider's, the ground's) hides from the eye at the frame."""
+    scene.frame_set(frame)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    hidden = 0
+    for p in points:
+        # Stopping short of the point: snow on the ground touches it.
+        towards = p - eye
+        hit = scene.ray_cast(depsgraph, eye, towards.normalized(), distance=towards.length * 0.98)
+        hidden += hit[0]
+    return hidden
+
+
+def load_run(run_dir, with_volume=False, bake=False):
     run_dir = os.path.abspath(run_dir)
     if not os.path.isdir(run_dir):
         fail(run_dir + ": no such directory (the run's -o)")
@@ -386,14 +590,23 @@ def load_run(run_dir, with_volume=False):
         fail(run_dir + ": no frame_NNNNN.vdb files (run snowsim with --vdb)")
     # The frame rate from run.json; a run killed before it wrote one: from the frames' times.
     run_json = os.path.join(run_dir, "run.json")
+    run = {}
     if os.path.exists(run_json):
         with open(run_json) as f:
-            fps = float(json.load(f)["fps"])
+            run = json.load(f)
+        fps = float(run["fps"])
     else:
         fps = frame_rate_of(list(files.values()))
     scene = bpy.context.scene
-    up = ply_comment(next(iter(files.values())), "up") or "y"
-    particles = load_particles(run_dir, scene, files, up)
+    first = next(iter(files.values()))
+    up = ply_comment(first, "up") or "y"
+    # Loaded the other way before: that way's particles go.
+    remove_objects([o for o in [object_of_run("snowsim_particles", run_dir, "EMPTY" if not bake
+                                              else "MESH")] if o])
+    if bake:
+        particles = bake_particles(run_dir, scene, files, up)
+    else:
+        particles = load_particles(run_dir, scene, files, up)
     # The frame rate as an integer over a base, as Blender keeps it (50 fps: 50 / 1).
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
@@ -403,9 +616,12 @@ def load_run(run_dir, with_volume=False):
         load_volume(run_dir, scene, volumes, up)
     for shape in load_colliders(run_dir, scene, up):
         print("blender_load_run.py: a %s collider is not drawn" % shape, file=sys.stderr)
+    load_ground(run_dir, scene, first)
     register_handler()
+    if not bake:
+        install_text_block()
     scene.frame_set(scene.frame_start)
-    frame_startup_scene(scene, particles, next(reversed(files.values())))
+    frame_startup_scene(scene, run, files)
     return particles
 
 
@@ -417,12 +633,16 @@ def frame_rate_of(paths):
 
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    paths = [a for a in argv if not a.startswith("--")]
+    # A misspelt option would otherwise load the run without what it asked for.
+    for a in argv:
+        if a.startswith("-") and a not in OPTIONS:
+            fail("unknown option %s (known: %s)" % (a, ", ".join(OPTIONS)))
+    paths = [a for a in argv if not a.startswith("-")]
     run_dir = paths[0] if paths else RUN_DIR
-    if not run_dir:  # a saved file opened again: its objects need the handler, nothing more
+    if REGISTER_ONLY or not run_dir:  # a saved file opened again: the handler, nothing more
         register_handler()
         return
-    load_run(run_dir, with_volume="--vdb" in argv)
+    load_run(run_dir, with_volume="--vdb" in argv, bake="--bake" in argv)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kTemporary = ".tmp";  // sim/io/files.h: writeFileAtomically's suffix
+const std::string kTemporary = ".tmp";      // sim/io/files.h: writeFileAtomically's suffix
+const std::string kPartialVideo = ".part";  // render/video_encoder.cpp: the video being encoded
+
+bool isTemporary(const fs::path& file) {
+  return file.extension() == kTemporary || file.extension() == kPartialVideo;
+}
+
+// Drops `suffix` from the end of name, if it ends so.
+void dropSuffix(std::string& name, const std::string& suffix) {
+  if (name.size() > suffix.size() &&
+      name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+    name.resize(name.size() - suffix.size());
+}
 
 // The video an earlier run recorded in its run.json, or "" when there is none.
 std::string recordedVideo(const fs::path& dir) {
@@ -43,7 +55,7 @@ std::string describe(const std::vector<fs::path>& files) {
   int temporaries = 0;
   for (const fs::path& file : files) {
     const std::string name = file.filename().string();
-    if (file.extension() == kTemporary)
+    if (isTemporary(file))
       ++temporaries;
     else if (name.rfind("frame_", 0) == 0)
       ++frames[file.extension() == ".png" ? "PNG" : file.extension() == ".vdb" ? "VDB" : "PLY"];
@@ -58,32 +70,46 @@ std::string describe(const std::vector<fs::path>& files) {
   return text.rfind(", ", 0) == 0 ? text.substr(2) : text;
 }
 
-}  // namespace
-
-std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& video) {
-  static const std::regex frame(R"(frame_[0-9]{5,}\.(ply|png|vdb))");
-  const std::string recorded = recordedVideo(dir);
+// The files in dir, sorted, whose names `keep` takes, a temporary by the name it is written for.
+template <class Keep>
+std::vector<fs::path> filesIn(const fs::path& dir, Keep&& keep) {
   std::vector<fs::path> files;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     if (!entry.is_regular_file() && !entry.is_symlink()) continue;
     std::string name = entry.path().filename().string();
-    if (name.size() > kTemporary.size() &&
-        name.compare(name.size() - kTemporary.size(), kTemporary.size(), kTemporary) == 0)
-      name.resize(name.size() - kTemporary.size());
-    if (std::regex_match(name, frame) || name == "run.json" || name == "colliders.json" ||
-        name == video || name == "checkpoint.snowsim" || name == "checkpoint.snowsim.prev" ||
-        (!recorded.empty() && name == recorded))
-      files.push_back(entry.path());
+    dropSuffix(name, kTemporary);
+    dropSuffix(name, kPartialVideo);
+    if (keep(name)) files.push_back(entry.path());
   }
   std::sort(files.begin(), files.end());
   return files;
 }
 
+void removeFiles(const std::vector<fs::path>& files) {
+  for (const fs::path& file : files) {
+    std::error_code ec;
+    fs::remove(file, ec);
+    if (ec) throw InputError(file.string() + ": cannot remove it (" + ec.message() + ")");
+  }
+}
+
+}  // namespace
+
+std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& video) {
+  static const std::regex frame(R"(frame_[0-9]{5,}\.(ply|png|vdb))");
+  const std::string recorded = recordedVideo(dir);
+  return filesIn(dir, [&](const std::string& name) {
+    return std::regex_match(name, frame) || name == "run.json" || name == "colliders.json" ||
+           name == video || name == "checkpoint.snowsim" || name == "checkpoint.snowsim.prev" ||
+           (!recorded.empty() && name == recorded);
+  });
+}
+
 void refuseEarlierRun(const std::string& dir, const std::string& video) {
   std::vector<fs::path> files = earlierRunFiles(dir, video);
   // Leftover temporaries are replaced as the run writes; only finished files are in the way.
-  std::erase_if(files, [](const fs::path& f) { return f.extension() == kTemporary; });
+  std::erase_if(files, isTemporary);
   if (files.empty()) return;
   throw InputError(dir + ": holds an earlier run (" + describe(files) +
                    "); choose another --out, or pass --overwrite to remove these files (and "
@@ -93,13 +119,34 @@ void refuseEarlierRun(const std::string& dir, const std::string& video) {
 void removeEarlierRun(const std::string& dir, const std::string& video) {
   const std::vector<fs::path> files = earlierRunFiles(dir, video);
   if (files.empty()) return;
-  for (const fs::path& file : files) {
-    std::error_code ec;
-    fs::remove(file, ec);
-    if (ec) throw InputError(file.string() + ": cannot remove it (" + ec.message() + ")");
-  }
+  removeFiles(files);
   std::fprintf(stderr, "snowsim: --overwrite: removed %s of an earlier run from %s\n",
                describe(files).c_str(), dir.c_str());
+}
+
+std::vector<fs::path> renderedFiles(const fs::path& dir, bool png, const std::string& video) {
+  static const std::regex frame(R"(frame_[0-9]{5,}\.png)");
+  return filesIn(dir, [&](const std::string& name) {
+    return (png && std::regex_match(name, frame)) || (!video.empty() && name == video);
+  });
+}
+
+void refuseEarlierRender(const std::string& dir, bool png, const std::string& video) {
+  std::vector<fs::path> files = renderedFiles(dir, png, video);
+  // Leftover temporaries are replaced as the render writes; only finished files are in the way.
+  std::erase_if(files, isTemporary);
+  if (files.empty()) return;
+  throw InputError(files.front().string() + ": would be overwritten (" + dir + " holds " +
+                   describe(files) +
+                   "); pass --overwrite to replace them, or render elsewhere with --out DIR");
+}
+
+void removeEarlierRender(const std::string& dir, bool png, const std::string& video) {
+  const std::vector<fs::path> files = renderedFiles(dir, png, video);
+  if (files.empty()) return;
+  removeFiles(files);
+  std::fprintf(stderr, "snowsim: --overwrite: removed %s from %s\n", describe(files).c_str(),
+               dir.c_str());
 }
 
 namespace {

@@ -1,11 +1,14 @@
 #include "app/run_directory.h"
 
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -153,9 +156,24 @@ namespace {
 
 const char* const kLockFile = ".snowsim.lock";
 
-std::string heldMessage(const std::string& dir) {
-  return dir + ": another snowsim run or resume is writing into it (it holds " + dir + "/" +
-         kLockFile + "); wait for it to end, or stop it";
+// The process a lock file names (the run that wrote it), or 0 when it names none.
+pid_t lockHolder(int fd) {
+  char text[32] = {};
+  const ssize_t n = pread(fd, text, sizeof text - 1, 0);
+  if (n <= 0) return 0;
+  char* end = nullptr;
+  const long pid = std::strtol(text, &end, 10);
+  return pid > 0 && end != text ? pid_t(pid) : 0;
+}
+
+bool isAlive(pid_t pid) {
+  return kill(pid, 0) == 0 || errno == EPERM;
+}
+
+std::string heldMessage(const std::string& dir, pid_t holder) {
+  const std::string who = holder > 0 ? "process " + std::to_string(holder) : "it";
+  return dir + ": another snowsim run or resume is writing into it (" + who + " holds " + dir +
+         "/" + kLockFile + "); wait for it to end, or stop it";
 }
 
 // A whole-file open-file-description lock: released when the descriptor closes, however the
@@ -167,21 +185,57 @@ struct flock wholeFile(short type) {
   return lock;
 }
 
+// Whether fd is still the file at path: a run that ended may have removed it since it was opened.
+bool isTheFileAt(int fd, const std::string& path) {
+  struct stat opened = {};
+  struct stat named = {};
+  return fstat(fd, &opened) == 0 && stat(path.c_str(), &named) == 0 &&
+         opened.st_dev == named.st_dev && opened.st_ino == named.st_ino;
+}
+
 }  // namespace
 
-RunDirectoryLock::RunDirectoryLock(const std::string& dir) {
-  const std::string path = dir + "/" + kLockFile;
-  fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  struct flock lock = wholeFile(F_WRLCK);
-  if (fd_ >= 0 && fcntl(fd_, F_OFD_SETLK, &lock) == 0) return;
-  const int error = errno;
-  if (fd_ >= 0) close(fd_);
-  fd_ = -1;
-  if (error == EAGAIN || error == EACCES) throw InputError(heldMessage(dir));
-  std::fprintf(stderr,
-               "snowsim: warning: %s: cannot lock it (%s): a second run or resume given this "
-               "directory would not be refused\n",
-               path.c_str(), std::strerror(error));
+RunDirectoryLock::RunDirectoryLock(const std::string& dir) : path_(dir + "/" + kLockFile) {
+  int error = 0;
+  bool locked = false;
+  do {
+    if (fd_ >= 0) close(fd_);
+    fd_ = open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    struct flock lock = wholeFile(F_WRLCK);
+    locked = fd_ >= 0 && fcntl(fd_, F_OFD_SETLK, &lock) == 0;
+    error = locked ? 0 : errno;
+  } while (locked && !isTheFileAt(fd_, path_));
+  const pid_t earlier = fd_ >= 0 ? lockHolder(fd_) : 0;
+  if (!locked) {
+    if (fd_ >= 0 && (error == EAGAIN || error == EACCES)) {
+      close(fd_);
+      fd_ = -1;
+      throw InputError(heldMessage(dir, earlier));
+    }
+    // Where the file system cannot lock, the process id is all there is to go by.
+    if (earlier > 0 && earlier != getpid() && isAlive(earlier)) {
+      if (fd_ >= 0) close(fd_);
+      fd_ = -1;
+      throw InputError(heldMessage(dir, earlier));
+    }
+    std::fprintf(stderr,
+                 "snowsim: warning: %s: cannot lock it (%s): a second run or resume given "
+                 "this directory is refused only by the process id the file holds\n",
+                 path_.c_str(), std::strerror(error));
+    if (fd_ < 0) return;
+  } else if (earlier > 0 && earlier != getpid()) {
+    // Unlocked, yet naming a process: left by a run that was killed before it could remove it.
+    std::fprintf(stderr, "snowsim: note: %s: left by process %ld, which %s; taken over\n",
+                 path_.c_str(), long(earlier),
+                 isAlive(earlier) ? "no longer holds it" : "no longer runs");
+  }
+  // The process id, for the message that refuses another run and to tell a stale file.
+  const std::string pid = std::to_string(getpid()) + "\n";
+  if (ftruncate(fd_, 0) != 0 || pwrite(fd_, pid.data(), pid.size(), 0) != ssize_t(pid.size()))
+    std::fprintf(stderr, "snowsim: warning: %s: cannot write the process id into it (%s)\n",
+                 path_.c_str(), std::strerror(errno));
+  // A second signal ends the process at once, past the destructor: the file goes then too.
+  removed_at_once_.emplace(path_);
 }
 
 void RunDirectoryLock::refuseIfHeld(const std::string& dir) {
@@ -189,12 +243,17 @@ void RunDirectoryLock::refuseIfHeld(const std::string& dir) {
   if (fd < 0) return;  // no run has locked it yet
   struct flock lock = wholeFile(F_WRLCK);
   const bool held = fcntl(fd, F_OFD_GETLK, &lock) == 0 && lock.l_type != F_UNLCK;
+  const pid_t holder = lockHolder(fd);
   close(fd);
-  if (held) throw InputError(heldMessage(dir));
+  if (held) throw InputError(heldMessage(dir, holder));
 }
 
 RunDirectoryLock::~RunDirectoryLock() {
-  if (fd_ >= 0) close(fd_);
+  if (fd_ < 0) return;
+  removed_at_once_.reset();  // a signal from here on must not remove a later run's file
+  // Removed while still locked: a run that opened this file meanwhile sees it gone and makes anew.
+  unlink(path_.c_str());
+  close(fd_);
 }
 
 }  // namespace snowsim

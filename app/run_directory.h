@@ -3,8 +3,11 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "sim/io/files.h"
 
 namespace snowsim {
 
@@ -37,8 +40,10 @@ void removeEarlierRender(const std::string& dir, bool png, const std::string& vi
 
 // Holds dir for one run (or resume) while it lives: a second run, or a resume, given the same
 // directory is refused instead of writing its frames among this one's. A lock on dir/.snowsim.lock
-// that the kernel releases when the process ends, however it ends; where the file system cannot
-// lock, a warning says so and the run goes on unlocked.
+// that the kernel releases when the process ends, however it ends; the file holds the process id
+// and is removed when the run ends, also by a second signal. A file left by a killed run holds no
+// lock and is taken over; where the file system cannot lock, a warning says so and only a file
+// naming a live process refuses the run.
 class RunDirectoryLock {
  public:
   // Throws InputError when another process holds dir.
@@ -51,7 +56,9 @@ class RunDirectoryLock {
   RunDirectoryLock& operator=(const RunDirectoryLock&) = delete;
 
  private:
+  std::string path_;
   int fd_ = -1;
+  std::optional<UnfinishedFile> removed_at_once_;
 };
 
 }  // namespace snowsim

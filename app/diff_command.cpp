@@ -34,7 +34,7 @@ void checkFraction(const char* option, double value, const char* meaning) {
 }
 
 std::string sizeText(const Image& image) {
-  return std::to_string(image.width) + "x" + std::to_string(image.height);
+  return sizeText(ImageSize{image.width, image.height});
 }
 
 // The frames of a directory: the names of its PNG files.
@@ -104,8 +104,15 @@ class Comparer {
   FrameResult compare(const std::string& name, const std::string& a, const std::string& b,
                       HtmlReport* html) const {
     const Image image_a = readPng(a), image_b = readPng(b);
-    if (image_a.width != image_b.width || image_a.height != image_b.height)
-      throw InputError(a + " is " + sizeText(image_a) + " but " + b + " is " + sizeText(image_b));
+    // Another resolution is a difference of the output, not bad input: the frame fails.
+    if (image_a.width != image_b.width || image_a.height != image_b.height) {
+      if (html) html->addResizedFrame(name, a, b);
+      return {name,
+              FrameResult::Status::Resized,
+              {},
+              {image_a.width, image_a.height},
+              {image_b.width, image_b.height}};
+    }
     if (mask_ && (mask_->width != image_a.width || mask_->height != image_a.height))
       throw InputError("--mask " + options_.limits.mask + " is " + sizeText(*mask_) + " but " + a +
                        " is " + sizeText(image_a) + "; the mask must have the frames' size");
@@ -114,7 +121,7 @@ class Comparer {
     const bool fails = diff.share > options_.limits.max_share;
     if (!options_.out.empty()) writePng(options_.out, diff.visual);
     if (fails && html) html->addFailingFrame(name, a, b, diff.visual);
-    return {name, fails ? FrameResult::Status::Failed : FrameResult::Status::Passed, diff};
+    return {name, fails ? FrameResult::Status::Failed : FrameResult::Status::Passed, diff, {}, {}};
   }
 
  private:
@@ -130,7 +137,7 @@ void compareDirectories(const Comparer& comparer, RunComparison& comparison, Htm
   std::set<std::string> names = in_a;
   names.insert(in_b.begin(), in_b.end());
   for (const std::string& name : names) {
-    FrameResult frame{name, FrameResult::Status::Missing, {}};
+    FrameResult frame{name, FrameResult::Status::Missing, {}, {}, {}};
     if (!in_b.count(name)) {
       frame.status = FrameResult::Status::Missing;
     } else if (!in_a.count(name)) {
@@ -172,9 +179,14 @@ void diff(const DiffOptions& options) {
     const FrameResult& frame = comparison.frames.emplace_back(comparer.compare(
         fs::path(options.a).filename().string(), options.a, options.b, html ? &*html : nullptr));
     const DiffFigures& f = frame.figures;
-    std::printf(
-        "%ld differing pixels (%.4f%%), %ld anti-aliased ignored, largest difference %.3f\n",
-        f.differing, 100 * f.share, f.anti_aliased, f.largest);
+    if (frame.status == FrameResult::Status::Resized)
+      std::printf("%s is %s but %s is %s: no pixel compared%s\n", options.a.c_str(),
+                  sizeText(frame.size_a).c_str(), options.b.c_str(), sizeText(frame.size_b).c_str(),
+                  options.out.empty() ? "" : ", no diff image written");
+    else
+      std::printf(
+          "%ld differing pixels (%.4f%%), %ld anti-aliased ignored, largest difference %.3f\n",
+          f.differing, 100 * f.share, f.anti_aliased, f.largest);
   }
   if (!options.json.empty()) writeJsonReport(options.json, comparison);
   if (html) html->finish(comparison);
@@ -202,7 +214,7 @@ void addDiffCommand(CLI::App& app) {
                   "of the comparison, its light ones compared");
   cmd->add_option("--out", options->out,
                   "Two images: write their diff image here (red: differs, yellow: anti-aliased "
-                  "edge, light blue: masked out)");
+                  "edge, light blue: masked out; none when their sizes differ)");
   cmd->add_option("--json", options->json, "Write every frame's figures here as JSON");
   cmd->add_option("--html", options->html,
                   "Write a page of the failing frames (A, B and diff image side by side) into "
@@ -219,7 +231,10 @@ void addDiffCommand(CLI::App& app) {
       "anti-aliased edge pixels not counted; 0..1 like --max-share (0.005 is 0.5%); the lines "
       "also give it in percent.\n"
       "Directories: frames are the *.png files, paired by name; a frame fails when its share "
-      "exceeds --max-share. Frames missing from B or extra in B fail too unless allowed. One line "
+      "exceeds --max-share, or when A's and B's images differ in size (a resolution change: no "
+      "pixel "
+      "is compared, and the JSON gives both sizes). Frames missing from B or extra in B fail too "
+      "unless allowed. One line "
       "is printed for each frame that differs, is missing or extra, then a PASS or FAIL line "
       "with the limits used.\n"
       "Exit codes: 0 within tolerance, 1 beyond it, 2 bad input.");

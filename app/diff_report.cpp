@@ -53,6 +53,8 @@ const char* statusName(FrameResult::Status status) {
       return "missing";
     case FrameResult::Status::Extra:
       return "extra";
+    case FrameResult::Status::Resized:
+      return "resized";
   }
   return "";
 }
@@ -110,11 +112,16 @@ constexpr std::pair<const char*, const char*> kFolders[] = {
 
 }  // namespace
 
+std::string sizeText(const ImageSize& size) {
+  return std::to_string(size.width) + "x" + std::to_string(size.height);
+}
+
 bool RunComparison::fails(const FrameResult& frame) const {
   switch (frame.status) {
     case FrameResult::Status::Passed:
       return false;
     case FrameResult::Status::Failed:
+    case FrameResult::Status::Resized:
       return true;
     case FrameResult::Status::Missing:
       return limits.missing_fail;
@@ -131,7 +138,8 @@ bool RunComparison::passed() const {
 
 long RunComparison::comparedFrames() const {
   return std::count_if(frames.begin(), frames.end(), [](const FrameResult& f) {
-    return f.status == FrameResult::Status::Passed || f.status == FrameResult::Status::Failed;
+    return f.status == FrameResult::Status::Passed || f.status == FrameResult::Status::Failed ||
+           f.status == FrameResult::Status::Resized;
   });
 }
 
@@ -147,6 +155,9 @@ std::string frameLine(const RunComparison& comparison, const FrameResult& frame)
       return verdict + frame.name + ": missing from B (in A only)";
     case FrameResult::Status::Extra:
       return verdict + frame.name + ": extra in B (not in A)";
+    case FrameResult::Status::Resized:
+      return verdict + frame.name + ": resized: " + sizeText(frame.size_a) + " in A, " +
+             sizeText(frame.size_b) + " in B (no pixel compared)";
   }
   return "";
 }
@@ -157,12 +168,18 @@ std::string summaryLine(const RunComparison& comparison) {
     const long missing = countStatus(comparison, FrameResult::Status::Missing),
                extra = countStatus(comparison, FrameResult::Status::Extra),
                compared = long(comparison.frames.size()) - missing - extra;
-    text += format("%ld of %ld frames beyond the limits, %ld missing from B, %ld extra in B",
-                   countStatus(comparison, FrameResult::Status::Failed), compared, missing, extra);
+    const long resized = countStatus(comparison, FrameResult::Status::Resized);
+    text += format("%ld of %ld frames beyond the limits",
+                   countStatus(comparison, FrameResult::Status::Failed) + resized, compared);
+    if (resized > 0) text += format(" (%ld of them resized)", resized);
+    text += format(", %ld missing from B, %ld extra in B", missing, extra);
     if (compared == 0) text += " (no frame is in both: nothing was compared)";
+  } else if (const FrameResult& frame = comparison.frames.front();
+             frame.status == FrameResult::Status::Resized) {
+    text += "the image size differs (" + sizeText(frame.size_a) + " in A, " +
+            sizeText(frame.size_b) + " in B)";
   } else {
-    const DiffFigures& f = comparison.frames.front().figures;
-    text += format("share %.4f of the pixels differ", f.share);
+    text += format("share %.4f of the pixels differ", frame.figures.share);
   }
   return text + "; limits: " + limitsText(comparison.limits);
 }
@@ -187,6 +204,9 @@ void writeJsonReport(const std::string& path, const RunComparison& comparison) {
                     {"anti_aliased_pixels", f.anti_aliased},
                     {"share", f.share},
                     {"largest_difference", f.largest}});
+    if (frame.status == FrameResult::Status::Resized)
+      entry.update({{"size_a", {frame.size_a.width, frame.size_a.height}},
+                    {"size_b", {frame.size_b.width, frame.size_b.height}}});
     frames.push_back(entry);
   }
   const DiffLimits& limits = comparison.limits;
@@ -244,12 +264,16 @@ HtmlReport::~HtmlReport() {
 
 void HtmlReport::addFailingFrame(const std::string& name, const fs::path& a, const fs::path& b,
                                  const Image& diff) {
+  addResizedFrame(name, a, b);
+  writePng((building_ / "diff" / name).string(), diff);
+}
+
+void HtmlReport::addResizedFrame(const std::string& name, const fs::path& a, const fs::path& b) {
   std::error_code ec;
   for (const auto& [from, folder] : {std::pair{a, "a"}, std::pair{b, "b"}})
     if (!fs::copy_file(from, building_ / folder / name, ec))
       throw InputError("--html " + name_ + ": cannot copy " + from.string() + " (" + ec.message() +
                        ")");
-  writePng((building_ / "diff" / name).string(), diff);
 }
 
 void HtmlReport::finish(const RunComparison& comparison) {
@@ -279,13 +303,15 @@ void HtmlReport::finish(const RunComparison& comparison) {
       missing_or_extra += "<li>" + escapeHtml(frameLine(comparison, frame)) + "</li>\n";
       continue;
     }
-    if (frame.status != FrameResult::Status::Failed) continue;
+    const bool resized = frame.status == FrameResult::Status::Resized;
+    if (frame.status != FrameResult::Status::Failed && !resized) continue;
     const std::string url = urlPath(frame.name);
     page += "<h2>" + escapeHtml(frameLine(comparison, frame)) + "</h2>\n<div class=\"row\">\n";
     for (const auto& [folder, caption] : kFolders)
-      page += std::string("<figure><a href=\"") + folder + "/" + url + "\"><img src=\"" + folder +
-              "/" + url + "\" alt=\"" + caption + "\"></a><figcaption>" + caption +
-              "</figcaption></figure>\n";
+      if (!resized || std::string(folder) != "diff")
+        page += std::string("<figure><a href=\"") + folder + "/" + url + "\"><img src=\"" + folder +
+                "/" + url + "\" alt=\"" + caption + "\"></a><figcaption>" + caption +
+                "</figcaption></figure>\n";
     page += "</div>\n";
   }
   if (!missing_or_extra.empty())

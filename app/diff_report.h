@@ -21,11 +21,20 @@ struct DiffLimits {
   bool directories = false;  // two directories of frames, not two images
 };
 
+struct ImageSize {
+  int width = 0, height = 0;
+};
+
+std::string sizeText(const ImageSize& size);  // "640x480"
+
 struct FrameResult {
-  enum class Status { Passed, Failed, Missing, Extra };
+  // Resized: A's and B's images differ in size (another resolution), so no pixel is compared; a
+  // difference like any other, which fails.
+  enum class Status { Passed, Failed, Missing, Extra, Resized };
   std::string name;  // the file name, by which frames are paired
   Status status = Status::Passed;
-  DiffFigures figures;  // zero for missing and extra frames
+  DiffFigures figures;       // zero for missing, extra and resized frames
+  ImageSize size_a, size_b;  // the images' sizes, for resized frames
 };
 
 struct RunComparison {
@@ -37,7 +46,7 @@ struct RunComparison {
   bool fails(const FrameResult& frame) const;
   // No frame beyond the limits, no missing or extra frame that fails, and at least one compared.
   bool passed() const;
-  long comparedFrames() const;  // frames in both A and B
+  long comparedFrames() const;  // frames in both A and B, resized ones too
 };
 
 // The line printed for a frame of a directory: only frames that differ, are missing or extra get
@@ -70,6 +79,10 @@ class HtmlReport {
   // failing must have been added.
   void addFailingFrame(const std::string& name, const std::filesystem::path& a,
                        const std::filesystem::path& b, const Image& diff);
+  // Copies a resized frame's two images, shown side by side without a diff image; each resized
+  // frame finish() shows must have been added.
+  void addResizedFrame(const std::string& name, const std::filesystem::path& a,
+                       const std::filesystem::path& b);
   void finish(const RunComparison& comparison);
 
  private:

@@ -13,6 +13,7 @@
 #include "app/collider_json.h"
 #include "app/commands.h"
 #include "app/render_sink.h"
+#include "app/run_directory.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -24,6 +25,7 @@ namespace {
 struct RenderCommandOptions {
   std::string frames;
   std::string out;
+  bool overwrite = false;
   RenderOptions render;
 };
 
@@ -163,6 +165,11 @@ void renderFrames(const RenderCommandOptions& options) {
   if (settings.color_by == ColorBy::Plastic && readPly(files.front()).plastic_j.empty())
     throw InputError("--color-by plastic: " + files.front() +
                      " has no plastic compression (J_P); only MPM runs write it");
+  // The run's own PNGs and video, or an earlier render's, are kept unless --overwrite says; said
+  // once the options are checked, before the frames are read.
+  const std::string out = options.out.empty() ? options.frames : options.out;
+  const std::string video = options.render.mp4 ? run.name + ".mp4" : "";
+  if (!options.overwrite) refuseEarlierRender(out, options.render.png, video);
   // The run's camera unless the command line places or frames one; a framing camera, and the
   // colour range of a quantity the run did not colour by, then come from every frame, so that
   // all are drawn alike.
@@ -184,12 +191,12 @@ void renderFrames(const RenderCommandOptions& options) {
   scanFrames(files, settings.color_by, bounds, range);
   if (frame_snow) settings.camera.frame = bounds;
   if (scan_range && range.high > range.low) settings.color_range = range;
-  const VideoSettings video =
+  const VideoSettings video_settings =
       options.render.videoSettings(run.fps, settings.width, settings.height);
-  const std::string out = options.out.empty() ? options.frames : options.out;
   prepareOutputDirectory(out);
-  RenderSink sink(settings, options.render.png ? out : "",
-                  options.render.mp4 ? out + "/" + run.name + ".mp4" : "", video);
+  if (options.overwrite) removeEarlierRender(out, options.render.png, video);
+  RenderSink sink(settings, options.render.png ? out : "", video.empty() ? "" : out + "/" + video,
+                  video_settings);
   for (const auto& file : files) {
     Snapshot frame = readPly(file);
     frame.colliders = run.collidersAt(frame.time);
@@ -210,13 +217,20 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("frames", options->frames, "Directory holding frame_NNNNN.ply files")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("-o,--out", options->out, "Output directory (default: the frames directory)");
+  cmd->add_option("-o,--out", options->out,
+                  "Output directory (default: the frames directory); one holding PNG frames or "
+                  "the video this would write is refused unless --overwrite");
+  cmd->add_flag("--overwrite", options->overwrite,
+                "Remove the PNG frames and the video already in the output directory (the run's "
+                "own or an earlier render's) first, and no other file");
   options->render.addTo(*cmd);
   cmd->footer(
       "The frames are drawn as the run drew them, or would have (run.json: the image size, the "
       "look and what is drawn, the camera and the colouring), unless the options above say "
       "otherwise; a quantity the run did not colour by takes a range over the extremes of all "
-      "the frames.\nExit codes: 0 done, 2 bad input.");
+      "the frames.\nPNG frames or a video already in the output directory (the run's own too) "
+      "are not written over: render elsewhere with --out, or pass --overwrite.\nExit codes: 0 "
+      "done, 2 bad input (nothing written).");
   cmd->callback([options] { renderFrames(*options); });
 }
 

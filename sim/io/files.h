@@ -12,8 +12,8 @@ void writeFileAtomically(const std::string& path, const std::string& bytes);
 // `path`, as writeFileAtomically does. Throws InputError naming `path`.
 void syncFile(const std::string& written, const std::string& path);
 
-// A file being written, as long as this lives: removeUnfinishedFiles() removes it. For the
-// temporaries of atomic writes and a video's .part, which a stop at once must not leave behind.
+// A file being written, as long as this lives: removeUnfinishedFiles() removes it. For temporaries,
+// a video's .part and a run directory's lock, which a stop at once must not leave behind.
 class UnfinishedFile {
  public:
   explicit UnfinishedFile(const std::string& path);

@@ -1,6 +1,7 @@
 #include "sim/scene/json_fields.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -85,6 +86,21 @@ std::string typeName(const Json& j) {
   return "null";
 }
 
+// A string naming a number JSON cannot hold ("nan", "-inf", "Infinity"): what --set time.dt=nan
+// gives, the value not parsing as JSON.
+bool namesNonFinite(const Json& j) {
+  if (!j.is_string()) return false;
+  std::string text = j.get<std::string>();
+  if (!text.empty() && (text[0] == '+' || text[0] == '-')) text.erase(0, 1);
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return text == "nan" || text == "inf" || text == "infinity";
+}
+
+std::string notFinite(const Json& j) {
+  return j.get<std::string>() + " is not a finite number";
+}
+
 std::string joinNames(const std::vector<std::string>& names) {
   std::string r;
   for (size_t i = 0; i < names.size(); ++i) r += (i ? ", \"" : "\"") + names[i] + "\"";
@@ -139,21 +155,23 @@ double JsonFields::number(const std::string& key, std::optional<double> fallback
                           double hi, bool lo_open, bool hi_open) {
   const Json* j = lookup(key, !fallback);
   if (!j) return *fallback;
+  const std::string range = std::string(lo_open ? "(" : "[") + numberText(lo) + ", " +
+                            numberText(hi) + (hi_open ? ")" : "]");
+  if (namesNonFinite(*j)) fail(key, notFinite(*j) + "; allowed: " + range);
   if (!j->is_number()) fail(key, "expected a number, found " + typeName(*j));
   const double x = j->get<double>();
   const bool below = lo_open ? !(x > lo) : !(x >= lo);
   const bool above = hi_open ? !(x < hi) : !(x <= hi);
-  if (!std::isfinite(x) || below || above) {
-    std::string range = std::string(lo_open ? "(" : "[") + numberText(lo) + ", " + numberText(hi) +
-                        (hi_open ? ")" : "]");
+  if (!std::isfinite(x) || below || above)
     fail(key, numberText(x) + " is out of range; allowed: " + range);
-  }
   return x;
 }
 
 int JsonFields::integer(const std::string& key, std::optional<int> fallback, int lo, int hi) {
   const Json* j = lookup(key, !fallback);
   if (!j) return *fallback;
+  if (namesNonFinite(*j))
+    fail(key, notFinite(*j) + "; allowed: " + std::to_string(lo) + " to " + std::to_string(hi));
   if (!j->is_number_integer()) fail(key, "expected a whole number, found " + typeName(*j));
   const auto x = j->get<long long>();
   if (x < lo || x > hi)
@@ -198,6 +216,7 @@ std::vector<double> JsonFields::numbers(const std::string& key,
     fail(key, "expected " + want + " numbers, found " + std::to_string(n));
   std::vector<double> r;
   for (const Json& e : *j) {
+    if (namesNonFinite(e)) fail(key, notFinite(e) + "; allowed: finite numbers");
     if (!e.is_number() || !std::isfinite(e.get<double>()))
       fail(key, "expected finite numbers, found " + typeName(e));
     r.push_back(e.get<double>());

@@ -410,6 +410,13 @@ Body parsePointsBody(JsonFields& f, Body& b, const Scene& scene, const JsonField
   for (int i = 0; i < b.points->size(); ++i)
     for (int a = 0; a < scene.dimension; ++a) {
       const double x = b.points->position[i][a];
+      if (!std::isfinite(x)) {
+        std::ostringstream s;
+        s << b.file << ": particle " << i << ": its "
+          << "xyz"[a] << " coordinate (" << x << ") is not a finite number; allowed: [0, "
+          << extent[a] << ") m, inside the grid";
+        f.fail("file", s.str());
+      }
       if (!(x >= 0 && x < extent[a])) {
         std::ostringstream s;
         s << b.file << ": particle " << i << " lies outside the grid along axis "

@@ -336,7 +336,8 @@ THREADED_TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume)
     SCOPED_TRACE(command);
     const auto r = runSnowsim(command);
     EXPECT_EQ(r.code, 2) << r.output;
-    EXPECT_NE(r.output.find(out.string() + ": another snowsim run or resume is writing into it"),
+    EXPECT_NE(r.output.find(out.string() + ": another snowsim run or resume is writing into it " +
+                            "(process " + std::to_string(child) + " holds"),
               std::string::npos)
         << r.output;
   }
@@ -346,9 +347,51 @@ THREADED_TEST(Checkpoint, ARunningRunsDirectoryIsRefusedToASecondRunAndToResume)
   const int status = finish(child, SIGCONT);
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  EXPECT_FALSE(fs::exists(out / ".snowsim.lock")) << "left by a run a signal stopped";
   const auto resumed = runSnowsim("resume " + out.string());
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(out / "run.json"))["frames"], 3);
+  EXPECT_FALSE(fs::exists(out / ".snowsim.lock")) << "left by a resume that ended";
+}
+
+// The lock file names its run's process; a run killed at once (SIGKILL, or a second signal,
+// which ends it past its destructors) leaves none that stands in the way: the second signal
+// removes it, and one left by SIGKILL names a process that no longer runs and holds no lock.
+THREADED_TEST(Checkpoint, ALockLeftByAKilledRunDoesNotHoldTheDirectory) {
+  const fs::path out = freshDir("stale_lock");
+  const fs::path lock = out / ".snowsim.lock";
+  const std::vector<std::string> args{
+      "run",   sceneFile("mpm_reference"), "-o",    out.string(),   "--no-png", "--no-mp4",
+      "--set", "time.duration=40",         "--set", "time.fps=0.05"};
+  pid_t child = startSnowsim(args);
+  ASSERT_TRUE(waitFor(out / frameName(0, "ply")));
+  EXPECT_EQ(bytesOf(lock), std::to_string(child) + "\n");
+  finish(child, SIGKILL);
+  ASSERT_EQ(bytesOf(lock), std::to_string(child) + "\n");
+  const std::string again = "run " + sceneFile("mpm_reference") + " -o " + out.string() +
+                            " --overwrite --no-png --no-mp4 --set time.duration=0.02";
+  auto r = runSnowsim(again);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find(lock.string() + ": left by process " + std::to_string(child) +
+                          ", which no longer runs; taken over"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(lock));
+
+  // Two signals while it is held still: the second ends it at once, without run.json.
+  const fs::path at_once = freshDir("stale_lock_at_once");
+  std::vector<std::string> into = args;
+  into[3] = at_once.string();
+  child = startSnowsim(into);
+  ASSERT_TRUE(waitFor(at_once / frameName(0, "ply")));
+  kill(child, SIGSTOP);
+  kill(child, SIGTERM);
+  kill(child, SIGINT);
+  const int status = finish(child, SIGCONT);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_TRUE(WEXITSTATUS(status) == 128 + SIGTERM || WEXITSTATUS(status) == 128 + SIGINT);
+  EXPECT_FALSE(fs::exists(at_once / "run.json")) << "the run did not stop at once";
+  EXPECT_FALSE(fs::exists(at_once / ".snowsim.lock")) << "left by a run a second signal ended";
 }
 
 // The MP4 of a killed and resumed run holds every frame once: ffprobe counts as many as PNGs.

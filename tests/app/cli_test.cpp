@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <regex>
 #include <set>
@@ -587,8 +588,9 @@ TEST(Cli, RenderRedrawsSavedFrames) {
                 .code,
             0);
   EXPECT_FALSE(fs::exists(out / "frame_00000.png"));
-  const Result r =
-      runSnowsim("render " + out.string() + " --color-by density --width 200 --height 100");
+  const Result r = runSnowsim("render " + out.string() +
+                              " --color-by density --width 200 --height 100 "
+                              "--overwrite");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_00002.png"));
   EXPECT_NE(r.output.find("3 frames drawn into " + out.string()), std::string::npos) << r.output;
@@ -603,6 +605,67 @@ TEST(Cli, RenderRedrawsSavedFrames) {
   EXPECT_EQ(damaged.code, 2) << damaged.output;
   EXPECT_NE(damaged.output.find("frame_00002.ply"), std::string::npos) << damaged.output;
   EXPECT_FALSE(fs::exists(again)) << "images written before the damaged frame";
+}
+
+// Every file of a directory, by name, with its bytes: what a refused command must leave as it was.
+std::map<std::string, std::string> everyFile(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir))
+    if (entry.is_regular_file())
+      files[fs::relative(entry.path(), dir).string()] = snowsim_test::bytesOf(entry.path());
+  return files;
+}
+
+// `snowsim render DIR` draws into DIR by default, where the run drew its own PNG frames and video:
+// like `snowsim run`, it does not write over them without --overwrite, and refused, writes
+// nothing.
+TEST(Cli, RenderKeepsTheFramesAndVideoItWouldWriteOverUnlessOverwrite) {
+  const fs::path out = freshDir("render_keeps");
+  ASSERT_EQ(runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
+                       " --set time.duration=0.04 --width 64 --height 48")
+                .code,
+            0);
+  const auto before = everyFile(out);
+  ASSERT_TRUE(before.count("frame_00002.png") && before.count("snowball_drop.mp4"));
+  Result r = runSnowsim("render " + out.string() + " --color-by speed");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(
+      r.output.find((out / "frame_00000.png").string() + ": would be overwritten (" + out.string() +
+                    " holds 3 PNG frames, snowball_drop.mp4); pass "
+                    "--overwrite"),
+      std::string::npos)
+      << r.output;
+  EXPECT_EQ(everyFile(out), before) << "a refused render wrote or changed a file";
+  r = runSnowsim("render " + out.string() + " --no-png");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find((out / "snowball_drop.mp4").string() + ": would be overwritten"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(everyFile(out), before);
+
+  // Elsewhere it draws; the run's PNGs do not stand in the way of a video alone, or of nothing
+  // of theirs.
+  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 -o " + (out / "speed").string() +
+                       " --color-by speed")
+                .code,
+            0);
+  EXPECT_TRUE(fs::exists(out / "speed" / "frame_00002.png"));
+  // --overwrite replaces them, and removes a frame no longer drawn, so that one render's frames
+  // are there.
+  snowsim::writePng((out / "frame_00099.png").string(),
+                    snowsim::readPng((out / "frame_00000.png").string()));
+  r = runSnowsim("render " + out.string() + " --color-by speed --overwrite");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(
+      r.output.find("--overwrite: removed 4 PNG frames, snowball_drop.mp4 from " + out.string()),
+      std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out / "frame_00099.png"));
+  EXPECT_EQ(snowsim_test::bytesOf(out / "frame_00002.png"),
+            snowsim_test::bytesOf(out / "speed" / "frame_00002.png"));
+  EXPECT_NE(snowsim_test::bytesOf(out / "frame_00002.png"), before.at("frame_00002.png"));
+  EXPECT_TRUE(fs::exists(out / "snowball_drop.mp4"));
+  EXPECT_EQ(snowsim_test::bytesOf(out / "frame_00002.ply"), before.at("frame_00002.ply"));
 }
 
 // run.json records the scene's colliders and colliders.json where they are at every frame;
@@ -635,7 +698,9 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
     return std::string(std::istreambuf_iterator<char>(in), {});
   };
   const std::string from_run = image("frame_00001.png");
-  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
+  ASSERT_EQ(
+      runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160 --overwrite").code,
+      0);
   EXPECT_EQ(image("frame_00001.png"), from_run) << "render draws what run drew, collider too";
 
   // Frames and colliders.json without a run.json (another program's frames): the colliders drawn.
@@ -643,7 +708,10 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   fs::create_directories(bare);
   for (const char* name : {"frame_00000.ply", "frame_00001.ply"}) fs::copy(out / name, bare / name);
   const auto bareImage = [&] {
-    EXPECT_EQ(runSnowsim("render " + bare.string() + " --no-mp4 --width 200 --height 160").code, 0);
+    EXPECT_EQ(
+        runSnowsim("render " + bare.string() + " --no-mp4 --width 200 --height 160 --overwrite")
+            .code,
+        0);
     std::ifstream in(bare / "frame_00001.png", std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
   };
@@ -652,7 +720,9 @@ TEST(Cli, RenderDrawsTheCollidersTheRunRecorded) {
   EXPECT_NE(bareImage(), without_colliders) << "colliders.json without run.json not drawn";
 
   fs::remove(out / "colliders.json");  // run.json's collider, moved on without turning
-  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160").code, 0);
+  ASSERT_EQ(
+      runSnowsim("render " + out.string() + " --no-mp4 --width 200 --height 160 --overwrite").code,
+      0);
   EXPECT_NE(image("frame_00001.png"), from_run) << "the collider unturned differs";
 
   summary["colliders"] = {{{"shape", "cone"}}};
@@ -1048,7 +1118,9 @@ TEST(Cli, RenderDrawsAMeshColliderAsTheRunDid) {
   const auto summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
   EXPECT_EQ(summary["colliders"][0]["shape"], "mesh");
   const auto from_run = fileBytes(out / "frame_00001.png");
-  ASSERT_EQ(runSnowsim("render " + out.string() + " --no-mp4 --width 160 --height 120").code, 0);
+  ASSERT_EQ(
+      runSnowsim("render " + out.string() + " --no-mp4 --width 160 --height 120 --overwrite").code,
+      0);
   EXPECT_EQ(fileBytes(out / "frame_00001.png"), from_run)
       << "render draws what run drew, the mesh too";
 }

@@ -91,7 +91,9 @@ TEST(DiffCommand, TwoImagesKeepTheirLineAndExitCodesAndAddASummary) {
       {a + " " + b, 1, "FAIL: share 0.0008"},  // 1 of 1200
       {a + " " + b + " --max-share 0.001 --threshold 0.2", 0,
        "PASS: share 0.0008 of the pixels differ; limits: --threshold 0.2, --max-share 0.001\n"},
-      {a + " " + small, 2, a + " is 40x30 but " + small + " is 10x10"},
+      // Another resolution is a difference, not bad input.
+      {a + " " + small, 1, a + " is 40x30 but " + small + " is 10x10: no pixel compared\n"},
+      {a + " " + small, 1, "FAIL: the image size differs (40x30 in A, 10x10 in B); limits"},
       {a + " " + (dir / "missing.png").string(), 2, "missing.png: no such file or directory"},
   };
   for (const auto& c : cases) {
@@ -211,6 +213,46 @@ TEST(DiffCommand, HtmlReportShowsTheFailingFramesSideBySide) {
   EXPECT_FALSE(fs::exists(report / "a" / "frame_1.png")) << "left over from the earlier report";
 }
 
+// A run rendered at another resolution differs: each frame of another size fails, without a pixel
+// compared, and the reports say so frame by frame, giving both sizes.
+TEST(DiffCommand, FramesOfAnotherSizeDifferFrameByFrame) {
+  const TwoRuns runs("diff_resized");
+  for (const char* frame : {"frame_0.png", "frame_2.png"})
+    snowsim::writePng((runs.b / frame).string(), flat(60, 20, 16));
+  const fs::path json = runs.root / "report.json", html = runs.root / "report";
+  const Result r =
+      runSnowsim("diff " + runs.args() + " --json " + json.string() + " --html " + html.string());
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_TRUE(contains(r.output,
+                       "FAIL  frame_2.png: resized: 40x30 in A, 20x16 in B (no pixel "
+                       "compared)\n"))
+      << r.output;
+  EXPECT_TRUE(contains(r.output,
+                       "FAIL: 3 of 3 frames beyond the limits (2 of them resized), 1 "
+                       "missing from B, 1 extra in B"))
+      << r.output;
+  const auto frames = nlohmann::json::parse(std::ifstream(json))["frames"];
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_EQ(frames[0]["status"], "resized");
+  EXPECT_EQ(frames[0]["size_a"], nlohmann::json::array({kWidth, kHeight}));
+  EXPECT_EQ(frames[0]["size_b"], nlohmann::json::array({20, 16}));
+  EXPECT_FALSE(frames[0].contains("share"));
+  EXPECT_EQ(frames[1]["status"], "fail");
+  EXPECT_FALSE(frames[1].contains("size_a"));
+  EXPECT_EQ(frames[2]["status"], "resized");
+  const std::string page = readText(html / "index.html");
+  EXPECT_TRUE(contains(page, "frame_0.png: resized: 40x30 in A, 20x16 in B")) << page;
+  EXPECT_TRUE(contains(page, "src=\"b/frame_0.png\"")) << page;
+  EXPECT_FALSE(contains(page, "src=\"diff/frame_0.png\"")) << page;
+  EXPECT_EQ(readText(html / "b" / "frame_0.png"), readText(runs.b / "frame_0.png"));
+  EXPECT_FALSE(fs::exists(html / "diff" / "frame_0.png"));
+
+  // No limit lets a resized frame pass.
+  const Result allowed = runSnowsim("diff " + runs.args() +
+                                    " --max-share 1 --threshold 1 --allow-missing --allow-extra");
+  EXPECT_EQ(allowed.code, 1) << allowed.output;
+}
+
 TEST(DiffCommand, MaskLeavesItsDarkPixelsOut) {
   const fs::path dir = freshDir("diff_mask");
   fs::create_directories(dir);
@@ -285,9 +327,6 @@ TEST(DiffCommand, BadInputWritesNoReport) {
   };
 
   // Found only when the frame is reached, after a failing frame went into the HTML report.
-  snowsim::writePng((runs.b / "frame_2.png").string(), flat(60, 20, 20));
-  expectRefused(runs.args() + reports, (runs.a / "frame_2.png").string() + " is 40x30 but " +
-                                           (runs.b / "frame_2.png").string() + " is 20x20");
   std::ofstream(runs.b / "frame_2.png") << "not a PNG";
   expectRefused(runs.args() + reports, (runs.b / "frame_2.png").string() + ": cannot read");
 

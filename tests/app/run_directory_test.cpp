@@ -106,6 +106,7 @@ TEST(RunDirectory, ASceneRefusedAtSetUpLeavesTheEarlierRunWhole) {
   EXPECT_NE(r.output.find("bodies[0] holds no particles"), std::string::npos) << r.output;
   EXPECT_EQ(countFrames(out, ".ply"), frames) << "the earlier run's frames are kept";
   EXPECT_TRUE(fs::exists(out / "run.json"));
+  EXPECT_FALSE(fs::exists(out / ".snowsim.lock")) << "an error leaves the directory's lock";
 }
 
 // An empty directory, or one with only other files, takes a run without --overwrite.
@@ -116,6 +117,7 @@ TEST(RunDirectory, OtherFilesDoNotStopARun) {
   const Result r = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
                               " --set time.duration=0.02 --no-png --no-mp4");
   EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / ".snowsim.lock")) << "a run that ended leaves its lock";
 }
 
 // run.json holds what reproduces the run: its resolved scene, run again with no --set or

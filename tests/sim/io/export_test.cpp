@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -367,6 +368,16 @@ TEST(Export, APointsBodyFileIsChecked) {
   runSmash(a, 0);
   fs::copy_file(a / "frame_00000.ply", dir / "state.ply", fs::copy_options::overwrite_existing);
   expectRefused("--set 'grid.cells=[4,10,8]'", "outside the grid along axis x");
+  // A NaN or infinite coordinate is not said to lie outside the grid: it lies nowhere.
+  snowsim::Snapshot state = snowsim::readPly((a / "frame_00000.ply").string());
+  for (const double bad : {std::nan(""), -std::numeric_limits<double>::infinity()}) {
+    snowsim::Snapshot broken = state;
+    broken.position[3][1] = bad;
+    snowsim::writePly((dir / "state.ply").string(), broken);
+    expectRefused("", "state.ply: particle 3: its y coordinate (" +
+                          std::string(std::isnan(bad) ? "nan" : "-inf") +
+                          ") is not a finite number; allowed: [0, ");
+  }
 }
 
 }  // namespace

@@ -98,6 +98,25 @@ TEST(Scene, WrongTypeIsNamed) {
       << message;
 }
 
+// --set time.dt=nan gives the string "nan" (JSON holds no NaN): said to be what it is, also for
+// infinities, whole numbers and the elements of a vector.
+TEST(Scene, ANonFiniteNumberIsNamedSo) {
+  const struct {
+    std::string set, says;
+  } cases[] = {
+      {"time.dt=nan", "time.dt: nan is not a finite number; allowed: (0, 10]"},
+      {"time.dt=-Infinity", "time.dt: -Infinity is not a finite number; allowed: (0, 10]"},
+      {"time.dt=inf", "time.dt: inf is not a finite number"},
+      {"particles_per_cell=nan", "particles_per_cell: nan is not a finite number; allowed: 1 to"},
+      {"bodies.0.velocity=[\"nan\", 0]",
+       "bodies[0].velocity: nan is not a finite number; allowed: finite numbers"},
+  };
+  for (const auto& c : cases) {
+    const std::string message = errorOf(kMinimal, {c.set});
+    EXPECT_NE(message.find(c.says), std::string::npos) << c.set << ": " << message;
+  }
+}
+
 TEST(Scene, NegativeTimeStepIsOutOfRange) {
   const std::string message = errorOf(kMinimal, {"time.dt=-0.001"});
   EXPECT_NE(message.find("time.dt: -0.001 is out of range; allowed: (0, 10]"), std::string::npos)

@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <memory>
 
-#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
+#include "sim/scene/scene_colliders.h"
 
 namespace snowsim {
 

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 
-#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/io/checkpoint.h"
 #include "sim/mpm/mpm_solver.h"
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
+#include "sim/scene/scene_colliders.h"
 
 namespace snowsim {
 

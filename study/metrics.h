@@ -77,7 +77,7 @@ double centreOfMassPathError(const Frames& run, const Frames& reference);
 // mass ends, in the last frame, beyond the tower's far (right) face there; negative while the
 // ball has not passed the tower (a tower pushed along with the ball still has the ball outside).
 // The ball is the particles with first-frame x < tower_left_x, the tower the others. The same
-// criterion as the report tests' (tests/report/report_scenes_test.cpp); docs/study.md says why.
+// criterion as the report tests' (tests/sim/report/report_scenes_test.cpp); docs/study.md says why.
 double ballPastTower(const Frames& frames, double tower_left_x);
 
 // The report's Fig. 2 claim: the thrown ball does not pass through the tower.

@@ -46,7 +46,6 @@ class SlabDecomposition {
   std::vector<std::string> gatherToFirst(std::string_view mine) const {
     return world_.gatherToFirst(mine);
   }
-  // Every rank's traffic, in rank order, on every rank.
 
   // particles: the whole scene, alike on every rank; cuts the slabs and keeps this rank's.
   template <class P>
@@ -153,12 +152,8 @@ class SlabDecomposition {
   // Every rank's value of a plain type, in rank order, on every rank.
   template <class V>
   std::vector<V> gatherEach(const V& mine) const {
-    static_assert(std::is_trivially_copyable_v<V>, "sent as its bytes");
     if (!distributed()) return {mine};
-    std::vector<V> all;
-    for (const std::string& bytes : world_.allGather(asBytes(std::vector<V>{mine})))
-      all.push_back(fromBytes<V>(bytes)[0]);
-    return all;
+    return snowsim::gatherEach(world_, mine);
   }
   // Each rank's values, every rank getting the largest.
   std::vector<double> maxOverRanks(std::vector<double> values) {

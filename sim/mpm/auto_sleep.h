@@ -9,9 +9,9 @@
 
 #include "sim/core/collider.h"
 #include "sim/core/grid.h"
+#include "sim/core/solver_statistics.h"
 #include "sim/core/stencil.h"
 #include "sim/scene/scene.h"
-#include "sim/solver.h"
 
 namespace snowsim {
 
@@ -21,7 +21,6 @@ template <int D, class T>
 class SleepStep {
  public:
   using V = Vec<D, T>;
-  static constexpr bool enabled = true;
 
   SleepStep(const AutoSleep& params, std::vector<int>& calm_steps, const GridGeometry<D>& grid,
             const GridFields<D, T>& fields, const std::vector<Collider<D>>& colliders,
@@ -55,7 +54,7 @@ class SleepStep {
   // moves. Asleep, it scattered its mass and its stress, both unchanged while it sleeps; it has no
   // velocity to gather and no deformation to update while its stencil rests.
   template <class Kernel>
-  bool sleepsThrough(int p, const V& x) const {
+  bool sleepsThrough(int p, const V& x) {
     int& calm = calm_[p];
     if (calm < steps_) return false;
     if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) {
@@ -77,7 +76,7 @@ class SleepStep {
   // long enough to fall asleep, when fallAsleep() stops its velocity and what feeds the grid from
   // it.
   template <class Kernel, class PassBatch, class FallAsleep>
-  void restOrStir(int p, const V& v, const PassBatch& batch, int a, FallAsleep&& fallAsleep) const {
+  void restOrStir(int p, const V& v, const PassBatch& batch, int a, FallAsleep&& fallAsleep) {
     int& calm = calm_[p];
     const bool resting =
         v.squaredNorm() < speed_ * speed_ && !stencilMoves<Kernel>(batch.x_before[a]);
@@ -138,7 +137,7 @@ class AutoSleeper {
     tally_.particles = particles;
   }
   const SleepTally& tally() const { return tally_; }
-  SleepTally& tally() { return tally_; }  // restored from a checkpoint
+  void restore(const SleepTally& tally) { tally_ = tally; }  // from a checkpoint
 
  private:
   AutoSleep params_;
@@ -149,7 +148,6 @@ class AutoSleeper {
 template <int D, class T>
 struct NoSleep {
   using V = Vec<D, T>;
-  static constexpr bool enabled = false;
   template <class Schedule, class Scatter, class Unit>
   void scatter(Schedule& schedule, Scatter&& scatter, Unit&&, T) const {
     schedule.scatter(scatter);

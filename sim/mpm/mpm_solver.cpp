@@ -66,8 +66,8 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
     parallelFor(&schedule_, particles_.size(), [&](int p) { estimateVolume<Kernel>(p); });
   });
   // The damper's grid-scale rate, about eta V_p^0 / (m_p h^2), needs dt <= rho h^2 / (4 eta) with
-  // rho = m_p / V_p^0, the step of a signal speed 4 eta / (rho h): 0.4-0.65 of the step measured
-  // to blow up in 2D and 3D (docs/mpm.md). The lightest particle sets it, once for the run.
+  // rho = m_p / V_p^0, the step of a signal speed 4 eta / (rho h), safely below the step measured
+  // to blow up (docs/mpm.md). The lightest particle sets it, once for the run.
   if (material_.viscosity > 0) {
     Real lightest = std::numeric_limits<Real>::infinity();
     for (int p = 0; p < particles_.size(); ++p)
@@ -147,6 +147,7 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
         [&](int p, PartialGrid& g) {
           opening.scatter(p, g, dt, [&](int q, PartialGrid& h) { plainScatter(q, h, dt); });
         },
+        // Sleeping snow scatters as plain snow: open cracks refuse auto-sleep.
         [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); }, dt);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     ranks_.updateNodes(
@@ -173,7 +174,7 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
 template <int D, class T>
 template <class Transfer, class Kernel, class Opening, class Sleep>
 void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt,
-                                    VectorIsa isa, Opening& opening, const Sleep& sleep) {
+                                    VectorIsa isa, Opening& opening, Sleep& sleep) {
   // 8 and the trial F_E one particle at a time, the return mapping for the batch's awake ones at
   // once, then 9 and 10 one at a time. Nothing a particle's steps read is written by another's.
   constexpr int most = Schedule::pass_batch;
@@ -370,11 +371,11 @@ void MpmSolver<D, T>::trialDeformation(int p, T dt) {
   // For PIC/FLIP C holds grad v; for APIC/MLS the affine C, equal to grad v for these kernels.
   M& F_E = particles_.F_E[p];
   // eq. 10, F_E^trial = (I + dt C) F_E, written out: GCC does not inline Eigen's product of small
-  // matrices (in 2D the call cost a twentieth of the step). Each entry is summed as Eigen's
+  // matrices, whose call is a visible share of the 2D step. Each entry is summed as Eigen's
   // unrolled sum is, a + (b + c) in 3D, so the results are Eigen's bit for bit.
   const M G = M::Identity() + dt * particles_.C[p];
   M trial;
-#pragma GCC unroll 3  // GCC keeps these loops of three otherwise: twice the instructions
+#pragma GCC unroll 3  // GCC keeps these loops of three otherwise
   for (int j = 0; j < D; ++j)
 #pragma GCC unroll 3
     for (int i = 0; i < D; ++i) {
@@ -484,17 +485,20 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
   const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
     OneVelocityPerNode<D, T> opening;  // a pass alone takes the plain gather
-    const auto pass = [&](const auto& sleep) {
+    const auto pass = [&](auto&& sleep) {
       schedule_.passOverParticles("move particles", particles_.x, part_measures_,
                                   [&](std::span<const int> batch, PartMeasure& m, Real* shares) {
                                     moveParticles<Transfer, Kernel>(batch, m, shares, T(dt), isa,
                                                                     opening, sleep);
                                   });
     };
-    if (sleeper_)
-      pass(sleepStep());
-    else
-      pass(NoSleep<D, T>{});
+    if (sleeper_) {
+      SleepStep<D, T> sleep = sleepStep();
+      pass(sleep);
+    } else {
+      NoSleep<D, T> sleep;
+      pass(sleep);
+    }
   });
   collectMeasures();
 }

@@ -3,9 +3,10 @@
 // MLS-MPM transfers, quadratic or cubic B-splines. stepWith() is the paper's section 4 list of
 // stages; each stage is a per-particle or per-node function below, and how they run over threads
 // (binning, rows and colours, partial grids, sorting) is the schedule's (sim/parallel/). The
-// optional features enter the step as parts chosen once per step: the crack opening's transfers
-// (sim/mpm/crack_opening.h), auto-sleep (sim/mpm/auto_sleep.h) and the other MPI ranks
-// (sim/distributed/rank_state.h). The state and the arithmetic of the explicit step are in the
+// optional features enter the step as parts chosen once per step and passed to it as template
+// arguments: the crack opening's transfers (sim/mpm/crack_opening.h) and auto-sleep
+// (sim/mpm/auto_sleep.h). The other MPI ranks enter through the rank state
+// (sim/distributed/rank_state.h), whose calls return at once in one process. The state and the arithmetic of the explicit step are in the
 // precision T, double or float (mpm.precision); what the solver hands out is in double, but for
 // snapshots, which it writes from its own arrays.
 #pragma once
@@ -213,7 +214,7 @@ class MpmSolver final : public Solver<D> {
   // batch[i]'s energy.
   template <class Transfer, class Kernel, class Opening, class Sleep>
   void moveParticles(std::span<const int> batch, PartMeasure& m, Real* shares, T dt, VectorIsa isa,
-                     Opening& opening, const Sleep& sleep);
+                     Opening& opening, Sleep& sleep);
   // Measures particle p into its batch's maxima and returns its energy.
   [[gnu::always_inline]] inline Real measure(int p, BatchMaxima& m) const;
   void measureParticles();  // the speeds and energy of the current state

@@ -214,16 +214,33 @@ void MpmSolver<D, T>::loadRankState(StateReader& in) {
   in.value(solves_);
   SleepTally sleep;
   in.value(sleep);
-  if (sleeper_) sleeper_->tally() = sleep;
+  if (sleeper_) sleeper_->restore(sleep);
   ranks_.loadSlabs(in);
   // Each step writes the grid nodes near the snow and leaves the rest zero, as here.
   fields_.resize(grid_.nodeCount());
   converted_at_step_ = -1;
 }
 
-template class MpmSolver<2, double>;
-template class MpmSolver<3, double>;
-template class MpmSolver<2, float>;
-template class MpmSolver<3, float>;
+// The class is instantiated in mpm_solver.cpp; these are the members defined here.
+#define SNOWSIM_MPM_SOLVER_STATE(D, T)                                \
+  template void MpmSolver<D, T>::measureParticles();                  \
+  template void MpmSolver<D, T>::collectMeasures();                   \
+  template void MpmSolver<D, T>::beforeFirstStep();                   \
+  template Real MpmSolver<D, T>::cflTimeStep() const;                 \
+  template Real MpmSolver<D, T>::advectionTimeStep() const;           \
+  template Real MpmSolver<D, T>::stableTimeStep() const;              \
+  template StepLimit MpmSolver<D, T>::stepLimit() const;              \
+  template void MpmSolver<D, T>::checkDivergence(Real) const;         \
+  template void MpmSolver<D, T>::describe(Snapshot&) const;           \
+  template const Particles<D>& MpmSolver<D, T>::particles() const;    \
+  template void MpmSolver<D, T>::saveSolverState(StateWriter&) const; \
+  template void MpmSolver<D, T>::loadSolverState(StateReader&);       \
+  template void MpmSolver<D, T>::saveRankState(StateWriter&) const;   \
+  template void MpmSolver<D, T>::loadRankState(StateReader&);
+SNOWSIM_MPM_SOLVER_STATE(2, double)
+SNOWSIM_MPM_SOLVER_STATE(3, double)
+SNOWSIM_MPM_SOLVER_STATE(2, float)
+SNOWSIM_MPM_SOLVER_STATE(3, float)
+#undef SNOWSIM_MPM_SOLVER_STATE
 
 }  // namespace snowsim

@@ -237,7 +237,7 @@ std::vector<Vec<D>> poissonDiskPoints(const Vec<D>& lo, const Vec<D>& hi, double
 }
 
 // The Poisson-disk radius, in lattice spacings, at which Bridson's sampling puts as many points in
-// a volume as the lattice does (measured on large boxes: tests/sim/scene_test.cpp).
+// a volume as the lattice does (measured on large boxes: tests/sim/scene/scene_test.cpp).
 template <int D>
 constexpr double kPoissonRadius = D == 2 ? 0.785 : 0.833;
 

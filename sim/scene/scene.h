@@ -79,7 +79,7 @@ struct MpmParams {
   double implicit_beta = 1;          // semi-implicit: 1 backward Euler, 0.5 trapezoidal, 0 explicit
   double implicit_tolerance = 1e-5;  // semi-implicit: relative residual of the Krylov solve
   int implicit_max_iterations = 200;  // semi-implicit: Krylov iteration cap per step
-  double cfl = 0.9;         // C of dt <= C h / (c + |v|max); the measured limit is 2.5-4x C = 0.5
+  double cfl = 0.9;         // C of dt <= C h / (c + |v|max); docs/mpm.md has the measured limit
   bool adaptive_dt = true;  // false: time.dt is used as is (to study stability)
   InitialVolume initial_volume = InitialVolume::Lattice;
   MpmPrecision precision = MpmPrecision::Double;      // float: explicit integrator only

@@ -12,7 +12,6 @@
 #include <sstream>
 #include <string>
 
-#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/geometry/level_set.h"
 #include "sim/geometry/triangle_mesh.h"
@@ -20,6 +19,7 @@
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene.h"
+#include "sim/scene/scene_colliders.h"
 #include "tests/support/temp_dir.h"
 
 using namespace snowsim;

@@ -7,11 +7,11 @@
 #include <string>
 #include <type_traits>
 
-#include "sim/scene/scene_colliders.h"
 #include "sim/core/errors.h"
 #include "sim/core/stencil.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
+#include "sim/scene/scene_colliders.h"
 #include "sim/simulation.h"
 #include "tests/support/threaded_test.h"
 

@@ -6,9 +6,9 @@
 // optional features enter the step as parts chosen once per step and passed to it as template
 // arguments: the crack opening's transfers (sim/mpm/crack_opening.h) and auto-sleep
 // (sim/mpm/auto_sleep.h). The other MPI ranks enter through the rank state
-// (sim/distributed/rank_state.h), whose calls return at once in one process. The state and the arithmetic of the explicit step are in the
-// precision T, double or float (mpm.precision); what the solver hands out is in double, but for
-// snapshots, which it writes from its own arrays.
+// (sim/distributed/rank_state.h), whose calls return at once in one process. The state and the
+// arithmetic of the explicit step are in the precision T, double or float (mpm.precision); what the
+// solver hands out is in double, but for snapshots, which it writes from its own arrays.
 #pragma once
 
 #include <limits>

@@ -905,7 +905,9 @@ TEST(Cli, ClumpsOfADamagedRunPrintsNoRows) {
 
 // --intact-below leaves out the particles stretched past a J_P and measures the pieces of the rest,
 // its shares still of all the particles: two rows joined by a bridge of torn snow are one clump,
-// or two pieces and the bridge left out.
+// or two pieces and the bridge left out. The chunks' mass shares follow, heaviest first: the second
+// row's particles weigh twice the first's, so of the 33 units of mass the second row holds 20 and
+// the first 10.
 TEST(Cli, ClumpsOfTheIntactSnowLeaveOutTheTornSnow) {
   const fs::path run = freshDir("clumps_intact");
   fs::create_directories(run);
@@ -920,18 +922,23 @@ TEST(Cli, ClumpsOfTheIntactSnowLeaveOutTheTornSnow) {
     s.velocity.push_back({0, 0, 0});
     s.plastic_j.push_back(i >= 10 && i < 13 ? 2.0f : 1.0f);
     s.density.push_back(400);
-    s.mass.push_back(1e-3f);
+    s.mass.push_back(i >= 13 ? 2e-3f : 1e-3f);
     s.radius.push_back(0.005f);
   }
   snowsim::writePly((run / "frame_00000.ply").string(), s);
   Result r = runSnowsim("clumps " + run.string());
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("\n0,0.0000,23,1,1,1.0000,0.0000,1.0000,0.0000,0.0000\n"),
+  const std::string no_more_chunks = ",0.0000,0.0000,0.0000,0.0000,0.0000,0.0000,0.0000,0.0000";
+  EXPECT_NE(r.output.find("\n0,0.0000,23,1,1,1.0000,0.0000,1.0000,0.0000,0.0000,1.0000,0.0000" +
+                          no_more_chunks + "\n"),
             std::string::npos)
       << r.output;
+  EXPECT_NE(r.output.find(",chunk1_mass_share,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(",chunk10_mass_share\n"), std::string::npos) << r.output;
   r = runSnowsim("clumps " + run.string() + " --intact-below 1.5");
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("\n0,0.0000,23,2,2,0.4348,0.4348,0.8696,0.0000,0.1304\n"),
+  EXPECT_NE(r.output.find("\n0,0.0000,23,2,2,0.4348,0.4348,0.8696,0.0000,0.1304,0.6061,0.3030" +
+                          no_more_chunks + "\n"),
             std::string::npos)
       << r.output;
 }

@@ -2,10 +2,12 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <new>
 #include <string>
 #include <utility>
 
 #include "app/interrupt.h"
+#include "app/memory_budget.h"
 #include "app/options.h"
 #include "sim/core/errors.h"
 #include "version.h"
@@ -78,12 +80,18 @@ bool launchedAsRankZero() {
 }
 
 int exitCodeOf(const std::exception& e) {
-  return dynamic_cast<const InputError*>(&e) ? 2 : dynamic_cast<const SimulationError*>(&e) ? 3 : 4;
+  if (dynamic_cast<const InputError*>(&e)) return 2;
+  if (dynamic_cast<const SimulationError*>(&e)) return 3;
+  if (dynamic_cast<const OutOfMemory*>(&e) || dynamic_cast<const std::bad_alloc*>(&e)) return 5;
+  return 4;
 }
 
 int reportFailure(const std::exception& e) {
   const int code = exitCodeOf(e);
-  const char* kind = code == 2 ? "error" : code == 3 ? "simulation failed" : "internal error";
+  const char* kind = code == 2   ? "error"
+                     : code == 3 ? "simulation failed"
+                     : code == 5 ? "out of memory"
+                                 : "internal error";
   std::fprintf(stderr, "snowsim: %s: %s\n", kind, e.what());
   return code;
 }

@@ -96,7 +96,8 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   if (seconds_after_first_ < 0 || steps < 1 + measured_steps) return "";
   said_ = true;
   const double seconds = simulation.stepSeconds() - seconds_after_first_;
-  const double rate = particles_ * double(measured_steps) / std::max(seconds, 1e-9);
+  // Of the simulation timed, which --estimate may make at a coarser resolution than the run's.
+  const double rate = simulation.particleCount() * double(measured_steps) / std::max(seconds, 1e-9);
   // A semi-implicit step's solve takes more iterations once the snow meets a collider or
   // hardens, which the first steps of a falling body do not show.
   const bool solves = simulation.statistics().implicit_solves.solves > 0;

@@ -2,8 +2,11 @@
 #include <omp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <optional>
 
@@ -14,6 +17,7 @@
 #include "app/cost_estimate.h"
 #include "app/frame_sink.h"
 #include "app/interrupt.h"
+#include "app/memory_budget.h"
 #include "app/options.h"
 #include "app/progress.h"
 #include "app/render_sink.h"
@@ -47,7 +51,8 @@ struct RunOptions {
   std::vector<std::string> overrides;
   std::string quality;  // draft | figure | reference (sim/scene/quality.h); empty: as written
   double scale = 1;     // resolution factor (sim/scene/scale.h)
-  bool estimate_only = false;  // --estimate: the cost lines from the first steps, no output
+  bool estimate_only = false;  // --estimate: the cost and memory lines, no output
+  std::string max_memory;      // --max-memory SIZE; empty: the memory available bounds a run
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   std::string precision;       // double | float: mpm.precision; empty: the scene's
   bool ply = true;
@@ -210,13 +215,64 @@ void warnOfCollidersOutsideTheGrid(const Scene& scene) {
   }
 }
 
-// --estimate: the cost before the run and the time from its first steps; writes nothing.
-void estimateOnly(const Scene& scene, int threads, RankExchange& world) {
-  const auto simulation = makeSimulation(scene, threads, world);
-  CostEstimate estimate(scene, simulation->particleCount(), simulation->stepLimit());
+// The particles and grid nodes up to which --estimate times the run's first steps on the scene
+// itself; a larger scene's are timed on the scene at a coarser resolution (probeScene).
+constexpr long kProbeParticles = 20000;
+constexpr long kProbeNodes = 500000;
+
+// The scene at `factor` (below 1) times its resolution, as --scale gives it but with the cells
+// rounded up to whole ones (a domain at most a cell larger): the bodies, their particles per
+// cell and everything tied to the cell follow.
+Scene probeScene(Scene scene, double factor) {
+  const double cell = scene.cell_size / factor;
+  for (int a = 0; a < scene.dimension; ++a)
+    if (a < scene.authored_dimension)
+      scene.cells[a] = std::max(1, int(std::ceil(scene.cells[a] * scene.cell_size / cell - 1e-9)));
+  scene.cell_size = cell;
+  scene.dt /= factor;
+  return scene;
+}
+
+// --estimate: the memory and the cost before the run, and the time of its first steps, from the
+// scene itself where it is small, else from the scene at a resolution small enough to build at
+// little cost: the run's own arrays are never allocated. Writes nothing.
+void estimateOnly(const Scene& scene, const RunMemory& memory, int threads, RankExchange& world) {
+  const long particles = memory.simulation.particles;
+  const double factor = std::min(
+      {1.0, std::pow(double(kProbeParticles) / std::max(1L, particles), 1.0 / scene.dimension),
+       std::pow(double(kProbeNodes) / memory.simulation.nodes, 1.0 / scene.dimension)});
+  const Scene probe = factor < 1 ? probeScene(scene, factor) : scene;
+  std::unique_ptr<Simulation> simulation;
+  try {
+    simulation = makeSimulation(probe, threads, world);
+  } catch (const InputError& e) {  // its bodies too thin for the coarser cells
+    CostEstimate estimate(scene, particles, StepLimit{});
+    std::fprintf(stderr, "%s\n%s: its steps are not timed: at %.2g times its resolution: %s\n",
+                 estimate.before().c_str(), scene.name.c_str(), factor, e.what());
+    return;
+  }
+  // The first step follows the cell, as --scale's does.
+  StepLimit start = simulation->stepLimit();
+  start.step *= factor;
+  CostEstimate estimate(scene, particles, start);
   std::fprintf(stderr, "%s\n", estimate.before().c_str());
+  // A grid far larger than its snow leaves the probe too few particles for a rate that says
+  // anything of the run's.
+  if (factor < 1 && simulation->particleCount() < kProbeParticles / 20) {
+    std::fprintf(stderr,
+                 "%s: its steps are not timed: at %.2g times its resolution, which its grid of "
+                 "%s nodes needs to be built at little cost, its snow is %d particles\n",
+                 scene.name.c_str(), factor, roughCount(memory.simulation.nodes).c_str(),
+                 simulation->particleCount());
+    return;
+  }
+  if (factor < 1)
+    std::fprintf(stderr,
+                 "%s: timing its first steps at %.2g times its resolution (%d particles, "
+                 "cells of %g m), not building the run's own arrays\n",
+                 scene.name.c_str(), factor, simulation->particleCount(), probe.cell_size);
   std::string measured;
-  simulation->advanceTo(scene.duration, [&] {
+  simulation->advanceTo(probe.duration, [&] {
     measured = estimate.afterStep(*simulation);
     return !measured.empty();
   });
@@ -415,6 +471,24 @@ FrameSinks frameSinks(const RunOptions& options, const RunPlan& plan, StageClock
   return sinks;
 }
 
+// The video being encoded, VIDEO.part until the encoder finishes it: a second signal removes it
+// (UnfinishedFile), and so does an error that ends the run before it is finished.
+class PartialVideo {
+ public:
+  explicit PartialVideo(const std::string& video) : path_(video + ".part"), unfinished_(path_) {}
+  ~PartialVideo() {
+    std::error_code ignored;
+    if (std::uncaught_exceptions() > exceptions_) std::filesystem::remove(path_, ignored);
+  }
+  PartialVideo(const PartialVideo&) = delete;
+  PartialVideo& operator=(const PartialVideo&) = delete;
+
+ private:
+  std::string path_;
+  UnfinishedFile unfinished_;
+  int exceptions_ = std::uncaught_exceptions();
+};
+
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -427,7 +501,7 @@ class FrameLoop {
  public:
   FrameLoop(const RunOptions& options, const RunPlan& plan, const SavedRun* saved,
             Simulation& simulation, StageClock& clock, RankExchange& world, bool writes,
-            std::chrono::steady_clock::time_point start)
+            std::chrono::steady_clock::time_point start, std::string& doing)
       : options_(options),
         plan_(plan),
         simulation_(simulation),
@@ -435,6 +509,7 @@ class FrameLoop {
         world_(world),
         writes_(writes),
         start_(start),
+        doing_(doing),
         frames_(plan.scene.frameCount()),
         progress_(frames_, plan.scene.duration, isatty(STDERR_FILENO)),
         start_limit_(simulation.stepLimit()),
@@ -458,6 +533,7 @@ class FrameLoop {
     int frame = plan_.first_frame;
     const auto betweenSteps = [this] { return this->betweenSteps(); };
     for (; frame <= frames_ && !interrupted(); ++frame, ++written) {
+      doing_ = "stepping to frame " + std::to_string(frame) + " of " + std::to_string(frames_);
       if (!simulation_.advanceTo(std::min(plan_.scene.duration, frame / plan_.scene.fps),
                                  betweenSteps))
         break;
@@ -466,6 +542,7 @@ class FrameLoop {
         const StageClock::Scope time(&clock_, "snapshot");
         snapshot = simulation_.snapshot(frame);
       }
+      doing_ = "writing frame " + std::to_string(frame);
       for (auto& sink : sinks) sink->write(snapshot);
       progress_.frame(frame, simulation_);
       if (frame < frames_ && cadence_.due(written + 1)) {
@@ -517,6 +594,7 @@ class FrameLoop {
   // The run's own state beside the solver's; next_frame: the first frame not yet written.
   void checkpoint(int next_frame) {
     const StageClock::Scope time(&clock_, "checkpoint");
+    doing_ = "writing a checkpoint";
     const SessionTimes& earlier = plan_.earlier;
     nlohmann::json state = {{"args", options_.args},
                             {"next_frame", next_frame},
@@ -542,6 +620,7 @@ class FrameLoop {
   RankExchange& world_;
   const bool writes_;
   const std::chrono::steady_clock::time_point start_;
+  std::string& doing_;  // what the loop is doing now, for the message of a failed allocation
   const int frames_;
   Progress progress_;
   const StepLimit start_limit_;
@@ -551,34 +630,12 @@ class FrameLoop {
   int stop_signal_ = 0;
 };
 
-// run, or resume from `saved` (the scene and state of a checkpoint of options.out): validate,
-// prepare the output, set up the simulation and the sinks, run the frames, record the run.
-// alike: set false once an error could be one rank's alone; until then an InputError is met by
-// every rank at the same point (the scene, the settings, the output directory's agreed refusal,
-// the solver's set-up, the agreed removal of an earlier run).
-void run(const RunOptions& options, SavedRun* saved, bool& alike) {
-  // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
-  // stderr goes nowhere (an error they meet, rank 0 meets too).
-  RankExchange& world = worldExchange();
-  const bool writes = world.rank() == 0;
-  if (!writes && !std::freopen("/dev/null", "w", stderr)) {
-    alike = false;
-    throw InputError("no /dev/null");
-  }
-  RunPlan plan = validatedRun(options, saved, world, writes);
+// A session of a run, once its output directory is ready: sets up the simulation and the
+// sinks, runs the frames, records the run. `doing` says what it is doing, for the message of an
+// allocation that fails.
+void runSession(const RunOptions& options, RunPlan& plan, SavedRun* saved, RankExchange& world,
+                bool writes, bool& alike, std::string& doing) {
   const Scene& scene = plan.scene;
-  if (options.estimate_only) {
-    alike = false;  // it steps
-    return estimateOnly(scene, options.threads, world);
-  }
-  plan.video_name = scene.name + ".mp4";
-  plan.resume_command =
-      (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " " : std::string()) +
-      "snowsim resume " + options.out +
-      (options.render.mp4 && !options.render.png && !options.ply ? " --no-mp4" : "");
-  if (saved) checkResumable(options, *saved, plan);
-  std::optional<RunDirectoryLock> lock;  // held until the run ends
-  prepareOutput(options, saved != nullptr, plan.video_name, world, writes, lock);
   const auto start = std::chrono::steady_clock::now();
   StageClock clock;  // this thread's stages; the solver times its own
   const std::unique_ptr<Simulation> simulation =
@@ -596,14 +653,13 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
     }
     if (writes) sinks = frameSinks(options, plan, clock);
   }
-  // A second signal ends the run at once: the unfinished video goes with it.
-  std::optional<UnfinishedFile> partial_video;
-  if (options.render.mp4 && writes)
-    partial_video.emplace(options.out + "/" + plan.video_name + ".part");
+  std::optional<PartialVideo> partial_video;
+  if (options.render.mp4 && writes) partial_video.emplace(options.out + "/" + plan.video_name);
 
   catchInterrupts();
-  FrameLoop loop(options, plan, saved, *simulation, clock, world, writes, start);
+  FrameLoop loop(options, plan, saved, *simulation, clock, world, writes, start, doing);
   const int written = loop.run(sinks);
+  doing = "writing run.json";
   const int stop_signal = loop.stopSignal();
   const SessionTimes& earlier = plan.earlier;
   // A resumed run's times and step statistics are of all its sessions (the solver's state
@@ -673,6 +729,63 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
                                        plan.resume_command + " continues it");
 }
 
+// run, or resume from `saved` (the scene and state of a checkpoint of options.out): validate,
+// prepare the output, set up the simulation and the sinks, run the frames, record the run.
+// alike: set false once an error could be one rank's alone; until then an InputError is met by
+// every rank at the same point (the scene, the settings, the output directory's agreed refusal,
+// the solver's set-up, the agreed removal of an earlier run).
+void run(const RunOptions& options, SavedRun* saved, bool& alike) {
+  // Under mpirun every rank simulates its share; rank 0 alone writes and prints, the others'
+  // stderr goes nowhere (an error they meet, rank 0 meets too).
+  RankExchange& world = worldExchange();
+  const bool writes = world.rank() == 0;
+  if (!writes && !std::freopen("/dev/null", "w", stderr)) {
+    alike = false;
+    throw InputError("no /dev/null");
+  }
+  RunPlan plan = validatedRun(options, saved, world, writes);
+  const Scene& scene = plan.scene;
+  const std::optional<double> max_memory =
+      options.max_memory.empty()
+          ? std::nullopt
+          : std::optional(parseMemorySize(options.max_memory, "--max-memory"));
+  const bool draws = writes && (options.render.png || options.render.mp4);
+  const RunMemory memory = runMemory(scene, countBodyParticles(scene),
+                                     {options.render.png && draws, options.render.mp4 && draws,
+                                      plan.render.width, plan.render.height});
+  std::fprintf(stderr, "%s\n", memory.line().c_str());
+  if (options.estimate_only) {
+    try {
+      refuseWhatCannotFit(memory, max_memory, options.max_memory);
+    } catch (const InputError& e) {
+      std::fprintf(stderr, "snowsim: warning: %s\n", e.what());
+    }
+    alike = false;  // it steps
+    return estimateOnly(scene, memory, options.threads, world);
+  }
+  refuseWhatCannotFit(memory, max_memory, options.max_memory);
+  plan.video_name = scene.name + ".mp4";
+  plan.resume_command =
+      (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " " : std::string()) +
+      "snowsim resume " + options.out +
+      (options.render.mp4 && !options.render.png && !options.ply ? " --no-mp4" : "");
+  if (saved) checkResumable(options, *saved, plan);
+  std::optional<RunDirectoryLock> lock;  // held until the run ends
+  prepareOutput(options, saved != nullptr, plan.video_name, world, writes, lock);
+  std::string doing = "building the simulation";
+  try {
+    runSession(options, plan, saved, world, writes, alike, doing);
+  } catch (const std::bad_alloc&) {
+    const std::optional<double> available = availableMemory();
+    throw OutOfMemory(scene.name + ": out of memory while " + doing +
+                      ": the run was estimated to need about " + memoryText(memory.bytes()) +
+                      " at its peak" +
+                      (available ? ", " + memoryText(*available) + " is available now" : "") +
+                      "; the frames written before are complete, the video is not written; a " +
+                      "smaller --scale or grid.cells, or fewer particles_per_cell, take less");
+  }
+}
+
 // The options of `snowsim run`; resume parses a run's recorded command line with them, its scene
 // file no longer needed (the checkpoint holds the scene as run).
 // Across ranks, an error one rank meets alone (rank 0's full disk) would leave the others waiting
@@ -719,8 +832,13 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
                   "domain and bodies (about S^D times the particles); time.dt and the scene's "
                   "sphere radius follow the cell (docs/scene-format.md)");
   cmd->add_flag("--estimate", options->estimate_only,
-                "Print the cost and time estimate from the first 11 steps, then stop; writes "
-                "nothing");
+                "Print the memory the run will need at its peak, its cost, and the time of its "
+                "first 11 steps (of the scene at a coarser resolution when it is large: the "
+                "run's own arrays are not allocated), then stop; writes nothing");
+  cmd->add_option("--max-memory", options->max_memory,
+                  "Refuse the run (exit code 2) when its estimated peak memory is more than SIZE, "
+                  "e.g. 500M or 8G (K, M, G, T: powers of 1024); without it, more than the "
+                  "memory available is refused");
   addThreadsOption(*cmd, options->threads);
   cmd->add_option("--precision", options->precision,
                   "double | float: the precision of the MPM state and step (mpm.precision; "
@@ -798,9 +916,12 @@ void addRunCommand(CLI::App& app) {
       "duration, and after the first steps an estimate of their time.\n"
       "A run writes checkpoint.snowsim every few minutes and when stopped by a signal; "
       "`snowsim resume DIR` continues it to the frames an uninterrupted run writes.\n"
-      "Exit codes: 0 done, 2 bad input, 3 the simulation diverged, 130/143 interrupted by "
-      "Ctrl-C/SIGTERM (the frames and video written so far are complete; a second signal stops "
-      "at once, leaving only complete files).");
+      "Before anything is allocated it prints the memory the run will need at its peak, and "
+      "refuses a run that needs more than is available or --max-memory.\n"
+      "Exit codes: 0 done, 2 bad input or a run that cannot fit in memory, 3 the simulation "
+      "diverged, 5 out of memory all the same (the frames written so far are complete), "
+      "130/143 interrupted by Ctrl-C/SIGTERM (the frames and video written so far are complete; "
+      "a second signal stops at once, leaving only complete files).");
   cmd->callback([options] {
     options->args = argumentsAfter("run");
     runOnEveryRank(*options);

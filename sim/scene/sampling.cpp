@@ -244,9 +244,9 @@ constexpr double kPoissonRadius = D == 2 ? 0.785 : 0.833;
 // Adds the body's particles within [from, to] (m, per axis) for which `inside(p)` holds, placed by
 // its seeding. Every particle carries an equal share of the mass the body's lattice holds there,
 // so a Poisson-disk body, whose count differs from the lattice's by a few percent, weighs the same.
-template <int D, typename Inside>
+template <int D, typename Inside, typename Sink>
 void fillBody(const Scene& scene, int b, const Vec3& from, const Vec3& to, Inside inside,
-              Particles<D>& particles) {
+              Sink& particles) {
   const Body& body = scene.bodies[b];
   const double spacing = particleSpacing(scene, body);
   Vec<D> velocity;
@@ -261,6 +261,10 @@ void fillBody(const Scene& scene, int b, const Vec3& from, const Vec3& to, Insid
   forEachLatticePoint<D>(scene, b, Seeding::Lattice, from, to, inside,
                          [&](const Vec<D>&) { ++lattice_count; });
   if (lattice_count == 0) return;  // no mass to share: the body holds no particle
+  if constexpr (Sink::counts_only) {
+    particles.addCount(lattice_count, b);  // Bridson's count is within a few percent of it
+    return;
+  }
   Vec<D> lo, hi;
   for (int a = 0; a < D; ++a) {
     lo[a] = std::max(0.0, from[a]);
@@ -294,18 +298,44 @@ void spin(const Vec3& w, int first, Particles<D>& particles) {
   }
 }
 
-}  // namespace
+// A sink of fillBodies that keeps no particle: their number, by body.
+struct ParticleCounter {
+  static constexpr bool counts_only = true;
+  std::vector<long> per_body;
+  template <class V>
+  void add(const V&, const V&, double, int b) {
+    ++per_body[b];
+  }
+  void addCount(long n, int b) { per_body[b] += n; }
+};
 
+// Particles<D> as a sink of fillBodies.
 template <int D>
-Particles<D> sampleBodies(const Scene& scene) {
+struct ParticleKeeper {
+  static constexpr bool counts_only = false;
   Particles<D> particles;
+  std::vector<long> per_body;
+  void add(const Vec<D>& x, const Vec<D>& v, double mass, int b) {
+    particles.add(x, v, mass, b);
+    ++per_body[b];
+  }
+};
+
+// Fills every body into the sink (add(x, v, mass, body) per particle). A counting sink is told
+// a points body's count and a Poisson-disk body's lattice count at once.
+template <int D, class Sink>
+void fillBodies(const Scene& scene, Sink& sink) {
+  sink.per_body.assign(scene.bodies.size(), 0);
   const int shape_dim = scene.authored_dimension;
   for (size_t b = 0; b < scene.bodies.size(); ++b) {
     const Body& body = scene.bodies[b];
     const int index = static_cast<int>(b);
     const double spacing = particleSpacing(scene, body);
     if (body.shape == BodyShape::Points) {
-      addPoints(*body.points, particleMass<D>(body, spacing), index, particles);
+      if constexpr (Sink::counts_only)
+        sink.addCount(body.points->size(), index);
+      else
+        addPoints(*body.points, particleMass<D>(body, spacing), index, sink.particles);
       continue;
     }
     if (body.shape == BodyShape::Mesh) {
@@ -313,10 +343,10 @@ Particles<D> sampleBodies(const Scene& scene) {
       // Voxels no coarser than the particles, so the filled shape keeps the mesh's detail.
       const LevelSet level_set(mesh, std::min(spacing, scene.cell_size / 2), 2 * spacing);
       const auto [from, to] = mesh.bounds();
-      const int first = particles.size();
       fillBody<D>(
-          scene, index, from, to, [&](const Vec3& p) { return level_set.phi(p) < 0; }, particles);
-      spin<D>(body.angular_velocity, first, particles);
+          scene, index, from, to, [&](const Vec3& p) { return level_set.phi(p) < 0; }, sink);
+      if constexpr (!Sink::counts_only)
+        spin<D>(body.angular_velocity, sink.particles.size() - sink.per_body[b], sink.particles);
       continue;
     }
     // Lattice range covering the body's bounding box (the whole slab depth when extruded).
@@ -331,13 +361,19 @@ Particles<D> sampleBodies(const Scene& scene) {
     }
     fillBody<D>(
         scene, index, from, to, [&](const Vec3& p) { return bodyContains(body, p, shape_dim); },
-        particles);
+        sink);
   }
+}
+
+}  // namespace
+
+template <int D>
+Particles<D> sampleBodies(const Scene& scene) {
+  ParticleKeeper<D> keeper;
+  fillBodies<D>(scene, keeper);
   // A body wider than its spacing may still hold none (a thin plate turned across the axes).
-  std::vector<int> count(scene.bodies.size(), 0);
-  for (int p = 0; p < particles.size(); ++p) ++count[particles.body[p]];
-  for (size_t b = 0; b < count.size(); ++b)
-    if (count[b] == 0) {
+  for (size_t b = 0; b < keeper.per_body.size(); ++b)
+    if (keeper.per_body[b] == 0) {
       std::ostringstream s;
       s << scene.file << ": bodies[" << b
         << "] holds no particles: no point of its particle lattice falls inside it (is it thinner "
@@ -346,7 +382,18 @@ Particles<D> sampleBodies(const Scene& scene) {
         << " m?); make it larger or thicker, or the cells finer";
       throw InputError(s.str());
     }
-  return particles;
+  return std::move(keeper.particles);
+}
+
+long countBodyParticles(const Scene& scene) {
+  ParticleCounter counter;
+  if (scene.dimension == 2)
+    fillBodies<2>(scene, counter);
+  else
+    fillBodies<3>(scene, counter);
+  long total = 0;
+  for (long n : counter.per_body) total += n;
+  return total;
 }
 
 template Particles<2> sampleBodies<2>(const Scene&);

@@ -32,4 +32,8 @@ void refuseBodiesNarrowerThanTheirParticles(const Scene& scene);
 template <int D>
 Particles<D> sampleBodies(const Scene& scene);
 
+// The particles sampleBodies makes, counted without keeping them (a Poisson-disk body's by its
+// lattice, within a few percent): what a run's memory and cost are estimated from.
+long countBodyParticles(const Scene& scene);
+
 }  // namespace snowsim

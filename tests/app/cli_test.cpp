@@ -41,12 +41,13 @@ std::string scene(const std::string& name) {
   return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
 }
 
-// Whether every line of a run's output is a per-frame progress line or the cost estimate: nothing
-// else to say.
+// Whether every line of a run's output is a per-frame progress line, the memory or the cost
+// estimate: nothing else to say.
 bool onlyProgress(const std::string& output) {
   std::istringstream lines(output);
   for (std::string line; std::getline(lines, line);)
-    if (line.rfind("frame ", 0) != 0 && line.find("particle-steps") == std::string::npos)
+    if (line.rfind("frame ", 0) != 0 && line.find("particle-steps") == std::string::npos &&
+        line.find(": memory: about ") == std::string::npos)
       return false;
   return true;
 }

@@ -28,12 +28,13 @@ std::optional<double> procValue(const char* file, const std::string& key) {
   return std::nullopt;
 }
 
-// Drawing a frame takes a fixed share (the software rasteriser's threads and tiles) and some
-// bytes per pixel (its colour, depth, shadow and occlusion buffers, the PNG writer's queue, the
-// encoder's frames), measured with /usr/bin/time on this renderer (docs/performance.md).
-constexpr double kDrawingFixed = 30.0 * (1 << 20);
+// Drawing the frames takes a fixed share (the software rasteriser's threads and tiles) and bytes
+// per pixel: the colour, depth, shadow and occlusion buffers and the PNG writer's queue, and the
+// video encoder's frames, which its look-ahead holds a few dozen of. Measured with /usr/bin/time
+// on this renderer and encoder (docs/performance.md, "Memory").
+constexpr double kDrawingFixed = 36.0 * (1 << 20);
 double drawingBytesPerPixel(int dimension, bool mp4) {
-  return dimension == 2 ? (mp4 ? 100 : 55) : (mp4 ? 140 : 120);
+  return dimension == 2 ? (mp4 ? 180 : 55) : (mp4 ? 240 : 120);
 }
 
 }  // namespace
@@ -75,16 +76,30 @@ std::optional<double> availableMemory() {
   return std::nullopt;
 }
 
+double RunMemory::bytes() const {
+  return program + simulation.peak(frames);
+}
+
+double RunMemory::most() const {
+  return program + simulation.peak(frames + simulation.spread);
+}
+
 std::string RunMemory::parts() const {
-  std::string text = "program " + memoryText(program);
-  for (const MemoryPart& p : simulation.parts)
-    if (p.bytes > 0) text += ", " + p.what + " " + memoryText(p.bytes);
+  const SimulationMemory& s = simulation;
+  std::string text = "program " + memoryText(program) + ", particles " + memoryText(s.state) +
+                     ", grid " + memoryText(s.dense + s.touched) + ", snapshot " +
+                     memoryText(s.snapshot);
   if (frames > 0) text += ", frames " + memoryText(frames);
-  return text + "; the grid's arrays counted whole";
+  if (s.setup > s.touched + s.snapshot + frames)
+    text += "; while it is built, the sampled particles' " + memoryText(s.setup) +
+            " instead of the grid's pages near the snow, the snapshot and the frames";
+  return text;
 }
 
 std::string RunMemory::line() const {
-  return scene_name + ": memory: about " + memoryText(bytes()) + " at its peak (" + parts() + ")";
+  const std::string about = memoryText(bytes()), up_to = memoryText(most());
+  return scene_name + ": memory: about " + about + " at its peak (" + parts() + ")" +
+         (up_to == about ? "" : ", up to " + up_to + " if the snow spreads over its grid");
 }
 
 RunMemory runMemory(const Scene& scene, long particles, const FrameOutput& output) {

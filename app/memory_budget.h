@@ -31,12 +31,13 @@ struct RunMemory {
   std::string scene_name;
   double program = 0;  // this process's resident size now: the program and its libraries
   SimulationMemory simulation;
-  double frames = 0;  // drawing and encoding the frames, where the run draws them
-  double bytes() const { return program + simulation.bytes() + frames; }
-  // "program 108 MiB, particles 42 MiB, grid 88 MiB, snapshot 11 MiB, frames 153 MiB; the grid's
-  // arrays counted whole"
+  double frames = 0;     // drawing and encoding the frames, where the run draws them
+  double bytes() const;  // the peak
+  double most() const;   // the peak once the snow has reached every node of its grid
+  // "program 107 MiB, particles 41 MiB, grid 69 MiB, snapshot 10 MiB, frames 247 MiB"
   std::string parts() const;
-  // "NAME: memory: about 400 MiB at its peak (PARTS)"
+  // "NAME: memory: about 480 MiB at its peak (PARTS), up to 575 MiB if the snow spreads over its
+  // grid"
   std::string line() const;
 };
 

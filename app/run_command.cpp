@@ -337,6 +337,16 @@ void checkRanksOf(const SavedRun& saved, int ranks) {
                    " (not " + across + ")");
 }
 
+// Every rank's refusal (`mine`, empty for none) refuses the run on every rank, with the message of
+// the first rank that has one.
+void refuseOnEveryRank(RankExchange& world, const std::string& mine) {
+  const std::vector<std::string> messages = world.allGather(mine);
+  for (size_t rank = 0; rank < messages.size(); ++rank)
+    if (!messages[rank].empty())
+      throw InputError(rank == 0 ? messages[rank]
+                                 : "MPI rank " + std::to_string(rank) + ": " + messages[rank]);
+}
+
 // The scene as every rank read it: a rank that could not read it (no shared file system) refuses
 // the run on every rank, with its message.
 Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
@@ -347,11 +357,7 @@ Scene sceneOnEveryRank(const RunOptions& options, RankExchange& world) {
   } catch (const InputError& e) {
     unread = e.what();
   }
-  const std::vector<std::string> messages = world.allGather(unread);
-  for (size_t rank = 0; rank < messages.size(); ++rank)
-    if (!messages[rank].empty())
-      throw InputError(rank == 0 ? messages[rank]
-                                 : "MPI rank " + std::to_string(rank) + ": " + messages[rank]);
+  refuseOnEveryRank(world, unread);
   return scene;
 }
 
@@ -763,7 +769,15 @@ void run(const RunOptions& options, SavedRun* saved, bool& alike) {
     alike = false;  // it steps
     return estimateOnly(scene, memory, options.threads, world);
   }
-  refuseWhatCannotFit(memory, max_memory, options.max_memory);
+  // Each rank holds the whole scene at first, and reads its own memory: one that cannot fit
+  // refuses the run on every rank.
+  std::string refused;
+  try {
+    refuseWhatCannotFit(memory, max_memory, options.max_memory);
+  } catch (const InputError& e) {
+    refused = e.what();
+  }
+  refuseOnEveryRank(world, refused);
   plan.video_name = scene.name + ".mp4";
   plan.resume_command =
       (world.ranks() > 1 ? "mpirun -np " + std::to_string(world.ranks()) + " " : std::string()) +

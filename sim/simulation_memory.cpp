@@ -1,7 +1,7 @@
 #include "sim/simulation_memory.h"
 
 #include <algorithm>
-#include <bit>
+#include <array>
 #include <cmath>
 #include <type_traits>
 
@@ -14,78 +14,136 @@ namespace snowsim {
 
 namespace {
 
-// The capacity push_back leaves a vector grown from empty to n elements: the next power of two.
-double grownCapacity(long n) {
-  return n > 0 ? double(std::bit_ceil(static_cast<unsigned long>(n))) : 0;
-}
+constexpr int kGhost = GridGeometry<3>::ghost;
+constexpr long kPage = 4096;
 
 // Bytes of the common particle arrays (Particles<D, T>: x, v, mass, volume, body, id).
 template <int D, class T>
 constexpr double commonParticleBytes = 2 * sizeof(Vec<D, T>) + 2 * sizeof(T) + 2 * sizeof(int);
 
+// The stored nodes (per axis, [lo, hi)) within reach of the bodies as placed: their boxes, grown
+// by the widest stencil's reach, in the grid's storage coordinates.
+struct NodeRange {
+  std::array<long, 3> lo{0, 0, 0}, hi{1, 1, 1};
+};
+NodeRange snowNodes(const Scene& scene) {
+  std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+  const Vec3 extent = scene.extent();
+  for (const Body& b : scene.bodies) {
+    std::array<double, 3> from{}, to{};
+    if (b.shape == BodyShape::Mesh) {
+      const auto bounds = b.mesh.placedAt(b.center).bounds();
+      from = bounds[0], to = bounds[1];
+    } else if (b.shape == BodyShape::Points) {
+      from = {INFINITY, INFINITY, INFINITY}, to = {-INFINITY, -INFINITY, -INFINITY};
+      for (const auto& p : b.points->position)
+        for (int a = 0; a < 3; ++a)
+          from[a] = std::min(from[a], double(p[a])), to[a] = std::max(to[a], double(p[a]));
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        const double half = b.shape == BodyShape::Box ? b.size[a] / 2 : b.radius;
+        from[a] = b.center[a] - half, to[a] = b.center[a] + half;
+      }
+    }
+    for (int a = 0; a < 3; ++a) {
+      // A 2D-authored body run in 3D fills the slab's depth.
+      if (a >= scene.authored_dimension) from[a] = 0, to[a] = extent[a];
+      lo[a] = std::min(lo[a], from[a]), hi[a] = std::max(hi[a], to[a]);
+    }
+  }
+  NodeRange r;
+  for (int a = 0; a < scene.dimension; ++a) {
+    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;  // no body: no snow
+    const long nodes = scene.cells[a] + 1 + 2 * kGhost;
+    const auto node = [&](double x) { return long(std::floor(x / scene.cell_size)) + kGhost; };
+    r.lo[a] = std::clamp(node(lo[a]) - kGhost, 0L, nodes - 1);
+    r.hi[a] = std::clamp(node(hi[a]) + kGhost + 2, r.lo[a] + 1, nodes);
+  }
+  return r;
+}
+
+// The bytes of the pages an array of `element` bytes per node, in the grid's flat order (x
+// fastest), has touched once every node of `range` is written.
+double touchedPages(const Scene& scene, const NodeRange& range, double element) {
+  std::array<long, 3> stride{1, 1, 1};
+  for (int a = 1; a < scene.dimension; ++a)
+    stride[a] = stride[a - 1] * (scene.cells[a - 1] + 1 + 2 * kGhost);
+  long pages = 0, last = -1;  // rows come in increasing flat order: pages counted once each
+  for (long k = range.lo[2]; k < range.hi[2]; ++k)
+    for (long j = range.lo[1]; j < range.hi[1]; ++j) {
+      const long row = j * stride[1] + k * stride[2];
+      const long first = long((row + range.lo[0]) * element) / kPage;
+      const long end = long((row + range.hi[0]) * element - 1) / kPage;
+      pages += end - std::max(first, last + 1) + 1;
+      last = end;
+    }
+  return double(pages) * kPage;
+}
+
+// The grid's arrays: `dense` bytes per node written whole when the solver is built, and arrays of
+// zero pages of these element sizes, touched where the snow is.
+struct GridArrays {
+  double dense = 0;
+  std::vector<double> zero_pages;
+  void addZeroPages(int count, double element) {
+    zero_pages.insert(zero_pages.end(), count, element);
+  }
+};
+
 // The MPM solver in precision T (MpmSolver<D, T>, its schedule and its parts).
 template <int D, class T>
-void mpmMemory(const Scene& scene, long n, long nodes, SimulationMemory& m) {
+double mpmParticleBytes(const Scene& scene, long n, GridArrays& grid, double& setup) {
   using V = Vec<D, T>;
   const MpmParams& mpm = scene.mpm;
   const bool sleep = mpm.auto_sleep.enabled;
   constexpr int colours = RowBinning<D>::colours;
-  // The sampled particles in double: a double state keeps their arrays (grown by push_back), a
-  // float one converts them and frees them.
-  const bool kept = std::is_same_v<T, double>;
-  double particles = (kept ? grownCapacity(n) : double(n)) * commonParticleBytes<D, T>;
+  // The sampled particles in double: a double state keeps their arrays, a float one converts
+  // them and frees them once it is built.
+  setup = std::is_same_v<T, double> ? 0 : n * commonParticleBytes<D, double>;
+  const double bytes = n * commonParticleBytes<D, T>;
   // F_E, C, tau, J_P, hardening; auto-sleep's calm steps; the binning's block and order and the
   // sort's spare.
   double per_particle = 2 * sizeof(Mat<D, T>) + sizeof(Symmetric<D, T>) + 2 * sizeof(T) +
                         (sleep ? sizeof(int) : 0) + 2 * sizeof(int) + sizeof(T);
-  // The grid's fields (mass, velocity, its rasterised copy, force), then one partial grid per
-  // colour (mass, momentum, force for transfers other than MLS), twice with auto-sleep (its
-  // still blocks' scratch).
-  double per_node = sizeof(T) + 3 * sizeof(V);
-  const double partial = sizeof(T) + sizeof(V) * (mpm.transfer == MpmTransfer::Mls ? 1 : 2);
-  per_node += colours * partial * (sleep ? 2 : 1);
+  // The grid's fields (mass, velocity, its rasterised copy, force), then per colour a partial
+  // grid (mass, momentum, force for transfers other than MLS), twice with auto-sleep (its still
+  // blocks' scratch).
+  grid.dense = sizeof(T) + 3 * sizeof(V);
+  for (int copy = 0; copy < (sleep ? 2 : 1); ++copy) {
+    grid.addZeroPages(colours, sizeof(T));
+    grid.addZeroPages(colours * (mpm.transfer == MpmTransfer::Mls ? 1 : 2), sizeof(V));
+  }
   if (mpm.open_cracks) {
     per_particle += sizeof(V) + sizeof(char);  // the damage gradient, near damage
     // Per colour: damage mass, damage, reference norm, two masses; reference, two normals, two
     // momenta. Per node: damage; reference and two velocities.
-    per_node += colours * (5 * sizeof(T) + 5 * sizeof(V)) + sizeof(T) + 3 * sizeof(V);
+    grid.addZeroPages(5 * colours + 1, sizeof(T));
+    grid.addZeroPages(5 * colours + 3, sizeof(V));
   }
   if (mpm.integrator == MpmIntegrator::SemiImplicit) {  // in double (ImplicitVelocitySolve)
-    const int stencil = std::pow(scene.mpm.kernel == KernelType::Cubic ? 4 : 3, D);
+    const int stencil = std::pow(mpm.kernel == KernelType::Cubic ? 4 : 3, D);
     per_particle += stencil * (sizeof(int) + sizeof(Vec<D>)) + sizeof(Mat<D>) + sizeof(Tangent<D>);
     // The nodes' free components; per active node (at most every node) its index both ways,
     // mass, stiffness block, preconditioner block and projection.
-    per_node += sizeof(Mat<D>) + 2 * sizeof(int) + sizeof(Real) + 3 * sizeof(Mat<D>);
+    grid.dense += sizeof(Mat<D>) + 2 * sizeof(int) + sizeof(Real) + 3 * sizeof(Mat<D>);
   }
-  m.parts.push_back({"particles", particles + n * per_particle});
-  m.parts.push_back({"grid", nodes * per_node});
-  // While the float solver is built, the sampled double particles it converts.
-  m.parts.push_back({"setup", kept ? 0 : grownCapacity(n) * commonParticleBytes<D, double>});
+  return bytes + n * per_particle;
 }
 
-// The report's density-hybrid solver (DensityHybridSolver<D>, double).
+// The report's density-hybrid solver (DensityHybridSolver<D>, double): its grid fields, the node
+// densities and step 4's scratch velocities.
 template <int D>
-void densityHybridMemory(long n, long nodes, SimulationMemory& m) {
-  m.parts.push_back({"particles", grownCapacity(n) * commonParticleBytes<D, Real>});
-  // Its grid fields, the node densities and step 4's scratch velocities.
-  m.parts.push_back(
-      {"grid", nodes * double(sizeof(Real) + 3 * sizeof(Vec<D>) + sizeof(Real) + sizeof(Vec<D>))});
-  m.parts.push_back({"setup", 0});
+double densityHybridParticleBytes(long n, GridArrays& grid) {
+  grid.dense = sizeof(Real) + 3 * sizeof(Vec<D>) + sizeof(Real) + sizeof(Vec<D>);
+  return n * commonParticleBytes<D, Real>;
 }
 
 }  // namespace
 
 long gridNodeCount(const Scene& scene) {
   long nodes = 1;
-  for (int a = 0; a < scene.dimension; ++a)
-    nodes *= scene.cells[a] + 1 + 2 * GridGeometry<3>::ghost;
+  for (int a = 0; a < scene.dimension; ++a) nodes *= scene.cells[a] + 1 + 2 * kGhost;
   return nodes;
-}
-
-double SimulationMemory::bytes() const {
-  double sum = 0;
-  for (const MemoryPart& p : parts) sum += p.bytes;
-  return sum;
 }
 
 SimulationMemory simulationMemory(const Scene& scene, long particles) {
@@ -94,28 +152,31 @@ SimulationMemory simulationMemory(const Scene& scene, long particles) {
   m.nodes = gridNodeCount(scene);
   const bool mpm = scene.solver == SolverType::Mpm;
   const bool single = mpm && scene.mpm.precision == MpmPrecision::Float;
-  if (scene.dimension == 2) {
-    if (!mpm)
-      densityHybridMemory<2>(particles, m.nodes, m);
-    else if (single)
-      mpmMemory<2, float>(scene, particles, m.nodes, m);
-    else
-      mpmMemory<2, double>(scene, particles, m.nodes, m);
-  } else {
-    if (!mpm)
-      densityHybridMemory<3>(particles, m.nodes, m);
-    else if (single)
-      mpmMemory<3, float>(scene, particles, m.nodes, m);
-    else
-      mpmMemory<3, double>(scene, particles, m.nodes, m);
+  GridArrays grid;
+  double setup = 0, state = 0;
+  if (!mpm)
+    state = scene.dimension == 2 ? densityHybridParticleBytes<2>(particles, grid)
+                                 : densityHybridParticleBytes<3>(particles, grid);
+  else if (scene.dimension == 2)
+    state = single ? mpmParticleBytes<2, float>(scene, particles, grid, setup)
+                   : mpmParticleBytes<2, double>(scene, particles, grid, setup);
+  else
+    state = single ? mpmParticleBytes<3, float>(scene, particles, grid, setup)
+                   : mpmParticleBytes<3, double>(scene, particles, grid, setup);
+  m.state = state;
+  m.dense = m.nodes * grid.dense;
+  m.setup = setup;
+  const NodeRange snow = snowNodes(scene);
+  double whole = 0;
+  for (double element : grid.zero_pages) {
+    m.touched += touchedPages(scene, snow, element);
+    whole += m.nodes * element;
   }
-  // A frame's snapshot: position, velocity, density, mass, radius and (MPM) J_P in float per
-  // particle; in 2D the node densities of the domain.
-  double snapshot = particles * 4.0 * (3 + 3 + 3 + (mpm ? 1 : 0));
-  if (scene.dimension == 2) snapshot += 4.0 * (scene.cells[0] + 1) * (scene.cells[1] + 1);
-  // What exists only while the solver is built, or only once it steps: whichever is larger.
-  MemoryPart& setup = m.parts.back();
-  if (snapshot >= setup.bytes) setup = {"snapshot", snapshot};
+  m.spread = std::max(0.0, whole - m.touched);
+  // Position, velocity, density, mass, radius and (MPM) J_P in float per particle; in 2D the node
+  // densities of the domain.
+  m.snapshot = particles * 4.0 * (3 + 3 + 3 + (mpm ? 1 : 0));
+  if (scene.dimension == 2) m.snapshot += 4.0 * (scene.cells[0] + 1) * (scene.cells[1] + 1);
   return m;
 }
 

@@ -657,6 +657,7 @@ void runSession(const RunOptions& options, RunPlan& plan, SavedRun* saved, RankE
       simulation->loadState(saved->solver_state, saved->file);
       std::string().swap(saved->solver_state);  // as large as the state: not kept for the run
     }
+    doing = "setting up the drawing of its frames";
     if (writes) sinks = frameSinks(options, plan, clock);
   }
   std::optional<PartialVideo> partial_video;
@@ -852,7 +853,8 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
   cmd->add_option("--max-memory", options->max_memory,
                   "Refuse the run (exit code 2) when its estimated peak memory is more than SIZE, "
                   "e.g. 500M or 8G (K, M, G, T: powers of 1024); without it, more than the "
-                  "memory available is refused");
+                  "memory available is refused")
+      ->type_name("SIZE");
   addThreadsOption(*cmd, options->threads);
   cmd->add_option("--precision", options->precision,
                   "double | float: the precision of the MPM state and step (mpm.precision; "
@@ -933,7 +935,8 @@ void addRunCommand(CLI::App& app) {
       "Before anything is allocated it prints the memory the run will need at its peak, and "
       "refuses a run that needs more than is available or --max-memory.\n"
       "Exit codes: 0 done, 2 bad input or a run that cannot fit in memory, 3 the simulation "
-      "diverged, 5 out of memory all the same (the frames written so far are complete), "
+      "diverged, 4 an internal error (a bug), 5 out of memory all the same (the frames written so "
+      "far are complete), "
       "130/143 interrupted by Ctrl-C/SIGTERM (the frames and video written so far are complete; "
       "a second signal stops at once, leaving only complete files).");
   cmd->callback([options] {

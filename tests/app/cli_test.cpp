@@ -35,11 +35,8 @@ using snowsim_test::freshDir;
 using snowsim_test::Result;
 using snowsim_test::runCommand;
 using snowsim_test::runSnowsim;
+using snowsim_test::scene;
 using snowsim_test::startSnowsim;
-
-std::string scene(const std::string& name) {
-  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
-}
 
 // Whether every line of a run's output is a per-frame progress line, the memory or the cost
 // estimate: nothing else to say.

@@ -24,10 +24,7 @@ using snowsim_test::freshDir;
 using snowsim_test::Result;
 using snowsim_test::runCommand;
 using snowsim_test::runSnowsim;
-
-std::string scene(const std::string& name) {
-  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
-}
+using snowsim_test::scene;
 
 // snowsim ARGS under a limit of `kib` KiB of address space, as `ulimit -v` sets it.
 Result runSnowsimWithin(long kib, const std::string& args) {

@@ -22,10 +22,7 @@ namespace fs = std::filesystem;
 using snowsim_test::freshDir;
 using snowsim_test::Result;
 using snowsim_test::runSnowsim;
-
-std::string scene(const std::string& name) {
-  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
-}
+using snowsim_test::scene;
 
 int countFrames(const fs::path& dir, const std::string& extension) {
   int n = 0;

@@ -33,6 +33,11 @@ inline Result runCommand(const std::string& command_line) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
 }
 
+// The path of a shipped scene file, e.g. scene("snowball_drop") or scene("flagship/smash_wall").
+inline std::string scene(const std::string& name) {
+  return std::string(SNOWSIM_SOURCE_DIR) + "/scenes/" + name + ".json";
+}
+
 inline Result runSnowsim(const std::string& args) {
   return runCommand(std::string(SNOWSIM_BINARY) + " " + args);
 }

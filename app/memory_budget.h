@@ -51,7 +51,8 @@ struct FrameOutput {
 RunMemory runMemory(const Scene& scene, long particles, const FrameOutput& output);
 
 // Throws InputError with both figures when the run's estimate is more than `max_memory` (given
-// as --max-memory TEXT) or the memory available.
+// as --max-memory TEXT) or the memory available, or when its grid has more nodes than it can
+// index.
 void refuseWhatCannotFit(const RunMemory& memory, std::optional<double> max_memory,
                          const std::string& max_memory_text);
 

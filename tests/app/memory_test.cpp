@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <string>
 
@@ -88,15 +89,24 @@ TEST(Memory, EstimateOfAHugeRunAllocatesLittle) {
     EXPECT_NE(r.output.find("estimate: the steps take about"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(out)) << huge;
   }
-  // 4096^3 cells need terabytes, more than any machine has, which --estimate says; at a
+  // 4096^3 cells need terabytes, and more nodes than a grid indexes, which --estimate says; at a
   // resolution small enough to build, the ball is a particle or two: its steps are not timed.
   const Result r =
       runSnowsimWithin(1000000, run + " --estimate --set 'grid.cells=[4096,4096,4096]'");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_GT(estimatedMib(r.output), 1 << 20) << r.output;
-  EXPECT_NE(r.output.find("warning: flagship_smash_wall: the run needs about"), std::string::npos)
+  EXPECT_NE(r.output.find("warning: flagship_smash_wall: grid.cells make"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("its steps are not timed"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // A run of it is refused, whatever --max-memory allows: its grid has more nodes than it indexes.
+  const Result refused =
+      runSnowsim(run + " --max-memory 1000T --set 'grid.cells=[4096,4096,4096]'");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("grid.cells make 68971442301 grid nodes (the ghost layers "
+                                "included), more than the 2147483647 a grid holds"),
+            std::string::npos)
+      << refused.output;
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -136,6 +146,23 @@ TEST(Memory, RunThatCannotFitIsRefused) {
   const Result fits = runSnowsim("run " + scene("snowball_drop") + " -o " + out.string() +
                                  " --max-memory 8G --no-png --no-mp4 --set time.duration=0.01");
   EXPECT_EQ(fits.code, 0) << fits.output;
+}
+
+// Without --max-memory, the memory the machine has free bounds a run: 1280^3 cells need more
+// than 64 GiB.
+TEST(Memory, RunThatCannotFitTheMachineIsRefused) {
+  const std::optional<double> available = snowsim::availableMemory();
+  ASSERT_TRUE(available.has_value());
+  if (*available > 64.0 * (1 << 30)) GTEST_SKIP() << "this machine has the memory for it";
+  const fs::path out = freshDir("refused_by_the_machine");
+  const Result r = runSnowsim("run " + scene("flagship/smash_wall") + " -o " + out.string() +
+                              " --set 'grid.cells=[1280,1280,1280]'");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("of memory available (MemAvailable); refused before it allocates"),
+            std::string::npos)
+      << r.output;
+  EXPECT_GT(estimatedMib(r.output), 64 * 1024) << r.output;
+  EXPECT_FALSE(fs::exists(out));
 }
 
 TEST(Memory, BadMaxMemoryIsRefusedNamingTheOption) {

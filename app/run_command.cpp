@@ -235,7 +235,7 @@ Scene probeScene(Scene scene, double factor) {
 
 // --estimate: the memory and the cost before the run, and the time of its first steps, from the
 // scene itself where it is small, else from the scene at a resolution small enough to build at
-// little cost: the run's own arrays are never allocated. Writes nothing.
+// little cost: a large run's own arrays are never allocated. Writes nothing.
 void estimateOnly(const Scene& scene, const RunMemory& memory, int threads, RankExchange& world) {
   const long particles = memory.simulation.particles;
   const double factor = std::min(
@@ -848,8 +848,8 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
                   "sphere radius follow the cell (docs/scene-format.md)");
   cmd->add_flag("--estimate", options->estimate_only,
                 "Print the memory the run will need at its peak, its cost, and the time of its "
-                "first 11 steps (of the scene at a coarser resolution when it is large: the "
-                "run's own arrays are not allocated), then stop; writes nothing");
+                "first 11 steps (of the scene at a coarser resolution when it is large, whose "
+                "own arrays are then not allocated), then stop; writes nothing");
   cmd->add_option("--max-memory", options->max_memory,
                   "Refuse the run (exit code 2) when its estimated peak memory is more than SIZE, "
                   "e.g. 500M or 8G (K, M, G, T: powers of 1024); without it, more than the "

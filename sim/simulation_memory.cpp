@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <type_traits>
+#include <vector>
 
 #include "sim/core/grid.h"
 #include "sim/core/math.h"
@@ -81,7 +82,8 @@ double touchedPages(const Scene& scene, const NodeRange& range, double element) 
 }
 
 // The grid's arrays: `dense` bytes per node written whole when the solver is built, and arrays of
-// zero pages of these element sizes, touched where the snow is.
+// these element sizes that take memory only where the snow is (zero pages, or the semi-implicit
+// solve's active nodes).
 struct GridArrays {
   double dense = 0;
   std::vector<double> zero_pages;
@@ -123,9 +125,10 @@ double mpmParticleBytes(const Scene& scene, long n, GridArrays& grid, double& se
   if (mpm.integrator == MpmIntegrator::SemiImplicit) {  // in double (ImplicitVelocitySolve)
     const int stencil = std::pow(mpm.kernel == KernelType::Cubic ? 4 : 3, D);
     per_particle += stencil * (sizeof(int) + sizeof(Vec<D>)) + sizeof(Mat<D>) + sizeof(Tangent<D>);
-    // The nodes' free components; per active node (at most every node) its index both ways,
-    // mass, stiffness block, preconditioner block and projection.
-    grid.dense += sizeof(Mat<D>) + 2 * sizeof(int) + sizeof(Real) + 3 * sizeof(Mat<D>);
+    // Per node its free components and its active index; per active node, near the snow, its
+    // node, mass, stiffness block, preconditioner block and projection.
+    grid.dense += sizeof(Mat<D>) + sizeof(int);
+    grid.addZeroPages(1, sizeof(int) + sizeof(Real) + 3 * sizeof(Mat<D>));
   }
   return bytes + n * per_particle;
 }

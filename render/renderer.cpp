@@ -310,9 +310,9 @@ struct Renderer::Gl {
   ShadowMap shadow;
   GLuint sphere_vao = 0, corner_vbo = 0, instance_vbo = 0, line_vao = 0, line_vbo = 0;
   GLuint mesh_vao = 0, mesh_vbo = 0, screen_vao = 0;
-  std::vector<float> instances, lines, cells, meshes;        // per frame, reused
-  std::vector<std::uint32_t> seen_by_camera, seen_by_light;  // 3D: particles not buried
-  GLsizei ground_vertices = 0;                               // the ground leads `meshes` in 3D
+  std::vector<float> instances, lines, floor_lines, cells, meshes;  // per frame, reused
+  std::vector<std::uint32_t> seen_by_camera, seen_by_light;         // 3D: particles not buried
+  GLsizei ground_vertices = 0;  // the ground leads `meshes` in 3D
 
   // A run of particles in the instance buffer.
   struct Particles {
@@ -320,7 +320,8 @@ struct Renderer::Gl {
     GLsizei count = 0;
   };
 
-  void drawLines(const View& camera, float marker);
+  // Vertices of position and colour (render/grid_lines.h) as lines or triangles.
+  void drawLines(const View& camera, float marker, const std::vector<float>& vertices, GLenum mode);
   void drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count);
   // Particles of the instance buffer: impostors, or one point sprite each (round_up: sprite
   // sizes round up, shaders/points.vert).
@@ -335,18 +336,15 @@ struct Renderer::Gl {
                       Particles seen_by_camera, Particles seen_by_light);
 };
 
-void Renderer::Gl::drawLines(const View& camera, float marker) {
-  if (cells.empty() && lines.empty()) return;
+void Renderer::Gl::drawLines(const View& camera, float marker, const std::vector<float>& vertices,
+                             GLenum mode) {
+  if (vertices.empty()) return;
   setCamera(programs.line, camera);
   setUniform(programs.line, "marker", marker);
   glBindVertexArray(line_vao);
   glBindBuffer(GL_ARRAY_BUFFER, line_vbo);
-  for (const auto& [vertices, mode] : {std::pair(&cells, GL_TRIANGLES), {&lines, GL_LINES}}) {
-    if (vertices->empty()) continue;
-    glBufferData(GL_ARRAY_BUFFER, vertices->size() * sizeof(float), vertices->data(),
-                 GL_STREAM_DRAW);
-    glDrawArrays(mode, 0, static_cast<GLsizei>(vertices->size() / 6));
-  }
+  glBufferData(GL_ARRAY_BUFFER, vertices.size() * sizeof(float), vertices.data(), GL_STREAM_DRAW);
+  glDrawArrays(mode, 0, static_cast<GLsizei>(vertices.size() / 6));
 }
 
 void Renderer::Gl::drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count) {
@@ -455,8 +453,12 @@ Image Renderer::render(const Snapshot& s) {
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
+  g.floor_lines.clear();
+  // 3D sprite frames are not supersampled: their lines a pixel wide get half the contrast.
+  const GridCanvas canvas{palette.background, palette.ground,
+                          s.grid.dimension == 3 && sprites ? 0.5f : 1.f};
   if (settings_.show_grid)
-    gridLines(s, extent, camera, w, h, palette.background, g.lines);
+    gridLines(s, extent, camera, w, h, canvas, g.lines, g.floor_lines);
   else if (s.grid.dimension == 2)
     groundLine(extent, g.lines);  // 3D frames have their ground plane
   g.meshes.clear();
@@ -478,7 +480,8 @@ Image Renderer::render(const Snapshot& s) {
     glClearColor(palette.background.r, palette.background.g, palette.background.b, 1.f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
-    g.drawLines(camera, 1.f);
+    g.drawLines(camera, 1.f, g.cells, GL_TRIANGLES);
+    g.drawLines(camera, 1.f, g.lines, GL_LINES);
     // Colliders over the grid, under the particles.
     glDisable(GL_DEPTH_TEST);
     g.drawMeshes(g.programs.mesh_forward, camera, 0, mesh_vertices);
@@ -565,7 +568,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   }
 
   // The G-buffer: the ground (pushed back, so grid lines and colliders on it win), the
-  // colliders, the grid as unlit lines, the spheres.
+  // colliders, the back wall's lines unlit and the floor's lit as the ground is, the spheres.
   glBindFramebuffer(GL_FRAMEBUFFER, g.deferred.gbuffer_fbo);
   glViewport(0, 0, gw, gh);
   const float no_albedo[] = {0, 0, 0, 0}, facing_normal[] = {0.5f, 0.5f, 1, 1}, far = 1;
@@ -581,9 +584,11 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   glDisable(GL_POLYGON_OFFSET_FILL);
   // The line shader writes no normal: unmasked, the normal target would get whatever llvmpipe
   // leaves in an unwritten output (it differed between identical runs). Masked, it keeps the
-  // normal of the surface the line lies on, which the occlusion pass reads there.
+  // normal of the surface the line lies on, which the occlusion pass reads there, and the
+  // lighting pass for the floor's lines.
   glColorMaski(1, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-  g.drawLines(camera, 0.5f);
+  g.drawLines(camera, 0.5f, g.lines, GL_LINES);
+  g.drawLines(camera, 1.f, g.floor_lines, GL_LINES);
   glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);

@@ -275,6 +275,33 @@ TEST(Renderer, FineGridsRenderWithoutMoire) {
   EXPECT_LT(highFrequencyEnergy(Renderer(RenderSettings{}).render(s)), 1.6);
 }
 
+// The figure look's back grid at 640x360 stays a light grid, not a dark mesh: seen from the front,
+// a wall of 60x40 cells of 1 cm (the flagship smash at --scale 0.5) lies about 7 pixels a cell,
+// and a small particle makes the frame one of sprites, not supersampled. The ink is how far
+// below the white background the wall's pixels are, on average.
+TEST(Renderer, FigureGridStaysLightAtSmallSizes) {
+  Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {60, 40, 40};
+  s.grid.cell_size = 0.01;
+  s.grid.particle_spacing = 0.005;
+  addParticle(s, 0.05, 0.35, 0.2);
+  RenderSettings settings;
+  settings.width = 640;
+  settings.height = 360;
+  settings.look = Look::Figure;
+  settings.camera.custom = true;
+  settings.camera.eye = {0.3, 0.2, 1.4};
+  settings.camera.target = {0.3, 0.2, 0};
+  const Image image = Renderer(settings).render(s);
+  double ink = 0;
+  int pixels = 0;
+  for (int y = 100; y < 260; ++y)
+    for (int x = 220; x < 420; ++x, ++pixels) ink += 255 - luminance(image.pixel(x, y));
+  EXPECT_GT(ink / pixels, 1) << "the grid is drawn";
+  EXPECT_LT(ink / pixels, 8) << "and light";
+}
+
 // The preset camera frames the snow's box: a small ball in a corner of a large domain fills the
 // image's height, from every preset, and stays within the image.
 TEST(Renderer, PresetCameraFramesTheSnow) {

@@ -64,6 +64,12 @@ void validate(const RenderSettings& s) {
     throw InputError("colour range (--color-range, render.color_range) [" +
                      numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
                      "] is empty; allowed: low < high");
+  if (s.color_range && s.color_by == ColorBy::Plastic &&
+      !(s.color_range->low > 0 && s.color_range->low < 1 && s.color_range->high > 1))
+    throw InputError("colour range (--color-range, render.color_range) [" +
+                     numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
+                     "] for --color-by plastic must hold J_P = 1 (no plastic change, the map's "
+                     "neutral middle); allowed: 0 < low < 1 < high");
 }
 
 namespace {

@@ -18,8 +18,8 @@
 
 namespace snowsim {
 
-// Plastic: MPM's plastic volume ratio J_P (white at 1, red where compressed, blue where
-// stretched); the snapshot must carry plastic_j.
+// Plastic: MPM's plastic volume ratio J_P (light grey at 1, red where compressed, blue where
+// stretched, render/colour.h); the snapshot must carry plastic_j.
 enum class ColorBy { White, Density, Speed, Plastic };
 
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.

@@ -168,22 +168,24 @@ float valueOf(const Snapshot& s, int i, ColorBy by) {
   return 0;
 }
 
+// A colour map's table of N entries evenly spread over t in [0, 1], interpolated linearly.
+template <int N>
+glm::vec3 lookUp(const float (&table)[N][3], float t) {
+  const float x = std::clamp(t, 0.f, 1.f) * (N - 1);
+  const int i = std::min(static_cast<int>(x), N - 2);
+  const float f = x - i;
+  return glm::mix(glm::vec3(table[i][0], table[i][1], table[i][2]),
+                  glm::vec3(table[i + 1][0], table[i + 1][1], table[i + 1][2]), f);
+}
+
 }  // namespace
 
 glm::vec3 viridis(float t) {
-  const float x = std::clamp(t, 0.f, 1.f) * 255;
-  const int i = std::min(static_cast<int>(x), 254);
-  const float f = x - i;
-  return glm::mix(glm::vec3(kViridis[i][0], kViridis[i][1], kViridis[i][2]),
-                  glm::vec3(kViridis[i + 1][0], kViridis[i + 1][1], kViridis[i + 1][2]), f);
+  return lookUp(kViridis, t);
 }
 
 glm::vec3 coolWarm(float t) {
-  const float x = std::clamp(t, 0.f, 1.f) * 8;
-  const int i = std::min(static_cast<int>(x), 7);
-  const float f = x - i;
-  return glm::mix(glm::vec3(kCoolWarm[i][0], kCoolWarm[i][1], kCoolWarm[i][2]),
-                  glm::vec3(kCoolWarm[i + 1][0], kCoolWarm[i + 1][1], kCoolWarm[i + 1][2]), f);
+  return lookUp(kCoolWarm, t);
 }
 
 float colourScale(double value, ColorBy by, const ColourRange& range) {

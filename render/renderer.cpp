@@ -20,6 +20,7 @@
 #include "render/grid_lines.h"
 #include "render/meshes.h"
 #include "render/shaders.h"
+#include "render/snow_volume.h"
 #include "sim/core/errors.h"
 
 namespace snowsim {
@@ -36,7 +37,12 @@ ColorBy parseColorBy(const std::string& name, const std::string& where) {
 Look parseLook(const std::string& name, const std::string& where) {
   if (name == "studio") return Look::Studio;
   if (name == "figure") return Look::Figure;
-  throw InputError(where + ": \"" + name + "\" is not allowed; allowed: studio, figure");
+  if (name == "volume") return Look::Volume;
+  throw InputError(where + ": \"" + name + "\" is not allowed; allowed: studio, figure, volume");
+}
+
+std::string lookName(Look look) {
+  return look == Look::Figure ? "figure" : look == Look::Volume ? "volume" : "studio";
 }
 
 void validate(const RenderSettings& s) {
@@ -241,6 +247,7 @@ struct Programs {
   GLuint sphere_gbuffer, point_gbuffer, mesh_gbuffer;
   GLuint point_depth, mesh_depth;  // the key light's shadow map
   GLuint occlusion, compose;
+  GLuint volume;  // --look volume's ray march
 
   Programs() {
     using namespace shaders;
@@ -255,6 +262,7 @@ struct Programs {
     mesh_depth = link({mesh_vert}, {depth_only_frag});
     occlusion = link({fullscreen_vert}, {surface_glsl, occlusion_frag});
     compose = link({fullscreen_vert}, {surface_glsl, compose_frag});
+    volume = link({fullscreen_vert}, {volume_frag});
   }
 };
 
@@ -319,6 +327,8 @@ struct Renderer::Gl {
   std::vector<float> instances, lines, floor_lines, cells, meshes;  // per frame, reused
   std::vector<std::uint32_t> seen_by_camera, seen_by_light;         // 3D: particles not buried
   GLsizei ground_vertices = 0;  // the ground leads `meshes` in 3D
+  SnowVolume volume;            // --look volume: the snow as a medium, and its 3D texture
+  GLuint volume_texture = 0;
 
   // A run of particles in the instance buffer.
   struct Particles {
@@ -336,7 +346,11 @@ struct Renderer::Gl {
   // The particles' centres and colours into the instance buffer: the given ones, in turn.
   void fillInstances(const Snapshot& s, const RenderSettings& settings,
                      const std::vector<const std::vector<std::uint32_t>*>& runs);
-  // 3D: shadow map, G-buffer, occlusion and lighting passes, into resolve_fbo.
+  // --look volume: `volume` into its texture, and marched over the lit image (lit_fbo).
+  void uploadVolume();
+  void drawVolume(const View& camera, const Palette& palette);
+  // 3D: shadow map, G-buffer, occlusion and lighting passes (and the volume's march), into
+  // resolve_fbo.
   void renderDeferred(const RenderSettings& settings, const View& camera, const Palette& palette,
                       glm::vec3 extent, float radius, bool sprites, GLsizei mesh_vertices,
                       Particles seen_by_camera, Particles seen_by_light);
@@ -454,7 +468,9 @@ Image Renderer::render(const Snapshot& s) {
       static_cast<float>(settings_.sphere_radius > 0 ? settings_.sphere_radius : 0.5 * spacing);
   const glm::vec4 centre_clip = camera.projection * camera.view * glm::vec4(0.5f * extent, 1.f);
   const float radius_pixels = radius * camera.projection[1][1] * 0.5f * h / centre_clip.w;
-  const bool sprites = s.size() > 0 && radius_pixels < settings_.lod_pixels;
+  // The volume look draws the spheres only into the shadow map, and is not supersampled.
+  const bool volume = settings_.look == Look::Volume && s.grid.dimension == 3;
+  const bool sprites = volume || (s.size() > 0 && radius_pixels < settings_.lod_pixels);
 
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
@@ -503,7 +519,12 @@ Image Renderer::render(const Snapshot& s) {
     // Particles buried in the snow are left out of the passes that cannot see them.
     const BuriedParticles buried(s.position, static_cast<float>(spacing), radius);
     g.seen_by_camera.clear();
-    buried.visibleFromPoint(glm::vec3(glm::inverse(camera.view)[3]), g.seen_by_camera);
+    if (volume) {
+      buildSnowVolume(s, radius, key_light, g.volume);
+      g.uploadVolume();
+    } else {
+      buried.visibleFromPoint(glm::vec3(glm::inverse(camera.view)[3]), g.seen_by_camera);
+    }
     g.seen_by_light.clear();
     if (settings_.shadows) buried.visibleFromDirection(key_light, g.seen_by_light);
     g.fillInstances(s, settings_, {&g.seen_by_camera, &g.seen_by_light});
@@ -548,6 +569,49 @@ void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settin
   glBindBuffer(GL_ARRAY_BUFFER, g.instance_vbo);
   glBufferData(GL_ARRAY_BUFFER, g.instances.size() * sizeof(float), g.instances.data(),
                GL_STREAM_DRAW);
+}
+
+void Renderer::Gl::uploadVolume() {
+  if (volume.empty()) return;
+  if (!volume_texture) {
+    glGenTextures(1, &volume_texture);
+    glBindTexture(GL_TEXTURE_3D, volume_texture);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+      glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
+  }
+  glBindTexture(GL_TEXTURE_3D, volume_texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexImage3D(GL_TEXTURE_3D, 0, GL_RGB16F, volume.size.x, volume.size.y, volume.size.z, 0, GL_RGB,
+               GL_FLOAT, volume.texels.data());
+}
+
+void Renderer::Gl::drawVolume(const View& camera, const Palette& palette) {
+  const GLuint program = programs.volume;
+  glUseProgram(program);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_3D, volume_texture);
+  glUniform1i(glGetUniformLocation(program, "volume_texture"), 0);
+  setTexture(program, "depth_texture", 1, deferred.depth);
+  setUniform(program, "clip_to_world", glm::inverse(camera.projection * camera.view));
+  setUniform(program, "eye", glm::vec3(glm::inverse(camera.view)[3]));
+  setUniform(program, "volume_origin", volume.origin);
+  setUniform(program, "volume_size", glm::vec3(volume.size));
+  setUniform(program, "spacing", volume.spacing);
+  setUniform(program, "box_low", volume.low);
+  setUniform(program, "box_high", volume.high);
+  setUniform(program, "snow_albedo", glm::vec3(0.93f, 0.95f, 1.0f));
+  // The medium scatters the same in every direction: the key light without a surface's cosine
+  // and the sky and bounce without a surface's tilt, at the weights a surface facing up and
+  // towards the light gets on average.
+  setUniform(program, "key_color", 1.1f * palette.key);
+  setUniform(program, "sky_color", 0.8f * palette.sky);
+  setUniform(program, "bounce_color", 0.5f * palette.bounce);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ONE, GL_SRC_ALPHA);  // the scattered light, over the image behind times T
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glDisable(GL_BLEND);
 }
 
 void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& camera,
@@ -645,6 +709,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   setUniform(p.compose, "bounce_color", palette.bounce);
   setUniform(p.compose, "background", palette.background);
   glDrawArrays(GL_TRIANGLES, 0, 3);
+  if (settings.look == Look::Volume && !g.volume.empty()) g.drawVolume(camera, palette);
 
   // Down to the image: a 2x2 box filter for supersampled frames (linear filtering at half scale).
   glBindFramebuffer(GL_READ_FRAMEBUFFER, g.deferred.lit_fbo);

@@ -195,6 +195,47 @@ TEST(Lighting, CollidersAreDrawn) {
   EXPECT_NEAR(brightness(drawn, {5, 5}), brightness(bare, {5, 5}), 1) << "far from both";
 }
 
+// --look volume: more snow along a ray lets less of what is behind it through. Two slabs side by
+// side, seen face on against the background: a single sheet of particles (optical depth pi r^2 /
+// spacing^2 = pi / 4, a transmittance of 0.46) and eight sheets (6.3, 0.002). A pixel is L + T
+// background, so the two backgrounds, black and white, give the transmittance T.
+TEST(Lighting, VolumeThickerSnowIsMoreOpaque) {
+  Snapshot s = domain();
+  s.grid.particle_spacing = 0.0025;
+  for (double x = 0.01; x < 0.04; x += 0.0025)
+    for (double y = 0.05; y < 0.09; y += 0.0025) {
+      addParticle(s, x, y, 0.05);
+      for (int layer = 0; layer < 8; ++layer) addParticle(s, x + 0.05, y, 0.04 + 0.0025 * layer);
+    }
+  RenderSettings settings;
+  settings.width = kWidth;
+  settings.height = kHeight;
+  settings.look = Look::Volume;
+  settings.camera.custom = true;
+  settings.camera.eye = {0.05, 0.07, 0.4};
+  settings.camera.target = {0.05, 0.07, 0};
+  settings.camera.fov_degrees = kFov;
+  settings.background = std::array<double, 3>{0, 0, 0};
+  const Image black = Renderer(settings).render(s);
+  settings.background = std::array<double, 3>{1, 1, 1};
+  const Image white = Renderer(settings).render(s);
+  // The pixel of a point of the plane z = 0.05 (0.35 m from the eye).
+  auto pixel = [](double x, double y) {
+    const double scale = 0.5 * kHeight / (0.35 * std::tan(kFov / 2 * kPi / 180));
+    return std::pair<int, int>{int(std::lround(kWidth / 2.0 + (x - 0.05) * scale)),
+                               int(std::lround(kHeight / 2.0 - (y - 0.07) * scale))};
+  };
+  auto transmittance = [&](double x, double y) {
+    return (brightness(white, pixel(x, y)) - brightness(black, pixel(x, y))) / 255;
+  };
+  EXPECT_GT(transmittance(0.05, 0.16), 0.99) << "no snow: the background";
+  const double thin = transmittance(0.025, 0.07), thick = transmittance(0.075, 0.07);
+  EXPECT_GT(thin, 0.25) << "a sheet lets the background through";
+  EXPECT_LT(thin, 0.7) << "but dims it";
+  EXPECT_LT(thick, 0.05) << "eight sheets hide it";
+  EXPECT_GT(brightness(black, pixel(0.075, 0.07)), 60) << "and the snow scatters light";
+}
+
 TEST(Lighting, LooksAndBackgroundSetTheBackground) {
   Snapshot s = domain();
   RenderSettings settings = topView();
@@ -210,6 +251,7 @@ TEST(Lighting, LooksAndBackgroundSetTheBackground) {
   settings.background = std::array<double, 3>{0, 0, 1.5};
   EXPECT_THROW(validate(settings), InputError);
   EXPECT_EQ(parseLook("figure"), Look::Figure);
+  EXPECT_EQ(parseLook("volume"), Look::Volume);
   EXPECT_THROW(parseLook("noir"), InputError);
 }
 

@@ -8,8 +8,6 @@ namespace snowsim {
 
 namespace {
 
-const glm::vec3 snow_white(0.93f, 0.95f, 1.0f);
-
 // Viridis by Nathaniel J. Smith and Stefan van der Walt, released under CC0 (public domain):
 // the 256 entries of matplotlib's _viridis_data (matplotlib/_cm_listed.py, as shipped in Debian's
 // python3-matplotlib 3.6.3).
@@ -180,6 +178,10 @@ glm::vec3 lookUp(const float (&table)[N][3], float t) {
 
 }  // namespace
 
+glm::vec3 snowWhite() {
+  return {0.93f, 0.95f, 1.0f};
+}
+
 glm::vec3 viridis(float t) {
   return lookUp(kViridis, t);
 }
@@ -250,7 +252,7 @@ std::string colourLabel(ColorBy by, int dimension) {
 }
 
 glm::vec3 particleColour(const Snapshot& s, int i, ColorBy by, const ColourRange& range) {
-  if (by == ColorBy::White || !(range.high > range.low)) return snow_white;
+  if (by == ColorBy::White || !(range.high > range.low)) return snowWhite();
   return colourMap(by, colourScale(valueOf(s, i, by), by, range));
 }
 

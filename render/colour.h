@@ -12,6 +12,9 @@
 
 namespace snowsim {
 
+// The colour of snow: the white colouring's, and the volume look's albedo.
+glm::vec3 snowWhite();
+
 // Viridis (perceptually uniform, readable in grey and by colour-blind viewers), t in [0, 1].
 glm::vec3 viridis(float t);
 

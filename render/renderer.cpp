@@ -601,10 +601,10 @@ void Renderer::Gl::drawVolume(const View& camera, const Palette& palette) {
   setUniform(program, "spacing", volume.spacing);
   setUniform(program, "box_low", volume.low);
   setUniform(program, "box_high", volume.high);
-  setUniform(program, "snow_albedo", glm::vec3(0.93f, 0.95f, 1.0f));
-  // The medium scatters the same in every direction: the key light without a surface's cosine
-  // and the sky and bounce without a surface's tilt, at the weights a surface facing up and
-  // towards the light gets on average.
+  setUniform(program, "snow_albedo", snowWhite());
+  // The medium scatters the same in every direction, with no surface's cosine to dim the key
+  // light or tilt to choose between sky and bounce: weights that make lit snow about as bright
+  // as the studio look's lit spheres.
   setUniform(program, "key_color", 1.1f * palette.key);
   setUniform(program, "sky_color", 0.8f * palette.sky);
   setUniform(program, "bounce_color", 0.5f * palette.bounce);

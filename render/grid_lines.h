@@ -25,7 +25,7 @@ struct GridCanvas {
 
 // The grid as a viewer can resolve it: the cell lines on the back plane, and in 3D both families
 // of the floor's lines, each drawn only where the lines of its level lie at least kLineFadePixels
-// apart on screen (levels 1, 5, 10, 50, ... cells: every 5th line stays when single cells are too
+// apart on screen (on the floor: those of both families) (levels 1, 5, 10, 50, ... cells: every 5th line stays when single cells are too
 // small, every 10th when those are, ...) and faded just above that, so no cell count or image
 // size gives moire. The walls, the ground and (3D) the floor's outline are always drawn. Appends
 // line segments (two vertices each): those on the back plane (2D: all) to `back`, those on the

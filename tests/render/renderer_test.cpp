@@ -290,8 +290,8 @@ double highFrequencyEnergy(const Image& image) {
 }
 
 // A 3D domain of 120x80x80 cells of 5 mm at the default 1280x720: drawing every cell line (the
-// back wall's 3-4 pixels apart, the floor's one or two) gives 2.35; the lines a viewer can
-// resolve, 1.1.
+// back wall's 3-4 pixels apart, the floor's one or two) gives 2.23; the lines a viewer can
+// resolve, 0.78.
 TEST(Renderer, FineGridsRenderWithoutMoire) {
   Snapshot s;
   s.grid.dimension = 3;

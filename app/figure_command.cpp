@@ -86,7 +86,7 @@ class SceneStrip {
   std::optional<ColourBar> colourBar() const {
     if (settings_.color_by == ColorBy::White || !settings_.color_range) return std::nullopt;
     return ColourBar{colourLabel(settings_.color_by, scene_.dimension), settings_.color_range->low,
-                     settings_.color_range->high};
+                     settings_.color_range->high, settings_.color_by == ColorBy::Plastic};
   }
   const std::optional<ColourRange>& colourRange() const { return settings_.color_range; }
 

@@ -14,6 +14,7 @@
 #include "app/commands.h"
 #include "app/render_sink.h"
 #include "app/run_directory.h"
+#include "render/colour.h"
 #include "sim/core/errors.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -128,7 +129,8 @@ RunSummary readRunSummary(const std::filesystem::path& dir) {
 }
 
 // The snow's extent over all frames and the extremes of the colouring quantity: density and
-// speed from 0 to the largest, J_P from the smallest to the largest.
+// speed from 0 to the largest, J_P from the smallest to the largest (made symmetric in log
+// about 1 by the caller).
 void scanFrames(const std::vector<std::string>& files, ColorBy by, Bounds& bounds,
                 ColourRange& range) {
   range = {by == ColorBy::Plastic ? 1e30 : 0, -1e30};
@@ -190,6 +192,8 @@ void renderFrames(const RenderCommandOptions& options) {
   ColourRange range;
   scanFrames(files, settings.color_by, bounds, range);
   if (frame_snow) settings.camera.frame = bounds;
+  if (scan_range && settings.color_by == ColorBy::Plastic && range.low > 0)
+    range = plasticRangeSpanning(range.low, range.high);
   if (scan_range && range.high > range.low) settings.color_range = range;
   const VideoSettings video_settings =
       options.render.videoSettings(run.fps, settings.width, settings.height);

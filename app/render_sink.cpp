@@ -45,7 +45,8 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
   command.add_option("--camera-preset", camera_preset,
                      "3D camera framing the snow: front, side, three_quarter (default) or top");
   command.add_option("--look", look,
-                     "studio (dark background, default) or figure (white, like a paper's figure)");
+                     "studio (dark background, default), figure (white, like a paper's figure) "
+                     "or volume (3D: the snow as a lit density volume)");
   command.add_option("--background", background, "Background colour r,g,b, each 0 to 1")
       ->delimiter(',')
       ->expected(3);
@@ -142,12 +143,9 @@ Camera cameraFromJson(const nlohmann::json& json) {
 }
 
 nlohmann::json drawingJson(const RenderSettings& settings) {
-  nlohmann::json j = {{"look", settings.look == Look::Figure ? "figure" : "studio"},
-                      {"sphere_radius", settings.sphere_radius},
-                      {"grid", settings.show_grid},
-                      {"density_cells", settings.density_cells},
-                      {"shadows", settings.shadows},
-                      {"occlusion", settings.occlusion}};
+  nlohmann::json j = {{"look", lookName(settings.look)}, {"sphere_radius", settings.sphere_radius},
+                      {"grid", settings.show_grid},      {"density_cells", settings.density_cells},
+                      {"shadows", settings.shadows},     {"occlusion", settings.occlusion}};
   if (settings.background) j["background"] = *settings.background;
   return j;
 }

@@ -1,11 +1,13 @@
 // Rendering speed: milliseconds per 1920x1080 frame of 3D snow (perspective) for 10k, 250k and 1M
-// spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a 2D
-// frame (orthographic, the report's look) of 1M; and per frame for each encoder (PNG, MP4).
+// spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a
+// --look volume frame of the flagship smash's ball (268k particles); a 2D frame (orthographic,
+// the report's look) of 1M; and per frame for each encoder (PNG, MP4).
 // Medians of the wall time, and the process's CPU time a frame (all of llvmpipe's threads; on a
 // shared machine it tells the work apart from the waiting). Usage:
 //   render_bench [repetitions=5] [frames_directory]
 // With a directory, the 3D frames with shadows and occlusion are also written there as PNGs
-// (both_250000.png, ...), to look at or to compare across builds with `snowsim diff`.
+// (both_250000.png, ...), and the volume frame (volume_268000.png), to look at or to compare
+// across builds with `snowsim diff`.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -42,6 +44,29 @@ Snapshot packedSnow(int dimension, int n) {
     s.velocity.push_back({0, -u(random), 0});
     s.density.push_back(400 * u(random));
   }
+  return s;
+}
+
+// The flagship smash's snowball (scenes/flagship/smash_wall.json): a ball of radius 0.1 m in
+// 120x80x80 cells of 5 mm, about 268k particles a jittered 2.5 mm apart.
+Snapshot flagshipBall() {
+  Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {120, 80, 80};
+  s.grid.cell_size = 0.005;
+  s.grid.particle_spacing = 0.0025;
+  std::mt19937 random(1);
+  std::uniform_real_distribution<float> jitter(-0.4f, 0.4f);
+  for (int i = -40; i <= 40; ++i)
+    for (int j = -40; j <= 40; ++j)
+      for (int k = -40; k <= 40; ++k) {
+        if (i * i + j * j + k * k > 40 * 40) continue;
+        s.position.push_back({0.3f + 0.0025f * (i + jitter(random)),
+                              0.2f + 0.0025f * (j + jitter(random)),
+                              0.2f + 0.0025f * (k + jitter(random))});
+        s.velocity.push_back({4, 0, 0});
+        s.density.push_back(400);
+      }
   return s;
 }
 
@@ -91,6 +116,15 @@ int main(int argc, char** argv) {
       writePng(std::string(frames_directory) + "/both_" + std::to_string(n) + ".png",
                both.render(s));
   }
+  RenderSettings volume_settings = fullHd(true, true);
+  volume_settings.look = Look::Volume;
+  Renderer volume(volume_settings);
+  const Snapshot ball = flagshipBall();
+  std::printf("3D %8d particles (--look volume) %s\n", ball.size(),
+              timeFrames(volume, ball, repetitions).c_str());
+  if (frames_directory)
+    writePng(std::string(frames_directory) + "/volume_" + std::to_string(ball.size()) + ".png",
+             volume.render(ball));
   std::printf("2D  1000000 spheres (sprites)    %s\n",
               timeFrames(plain, packedSnow(2, 1'000'000), repetitions).c_str());
 

@@ -8,8 +8,6 @@ namespace snowsim {
 
 namespace {
 
-const glm::vec3 snow_white(0.93f, 0.95f, 1.0f);
-
 // Viridis by Nathaniel J. Smith and Stefan van der Walt, released under CC0 (public domain):
 // the 256 entries of matplotlib's _viridis_data (matplotlib/_cm_listed.py, as shipped in Debian's
 // python3-matplotlib 3.6.3).
@@ -144,6 +142,16 @@ constexpr float kViridis[256][3] = {
     {0.983868f, 0.904867f, 0.136897f}, {0.993248f, 0.906157f, 0.143936f},
 };
 
+// A diverging map after Moreland's "cool to warm" (Moreland 2009, as ParaView and matplotlib's
+// coolwarm): 9 of its 33 entries, warm red first, through light grey, to cool blue.
+constexpr float kCoolWarm[9][3] = {
+    {180 / 255.f, 4 / 255.f, 38 / 255.f},    {222 / 255.f, 96 / 255.f, 77 / 255.f},
+    {244 / 255.f, 154 / 255.f, 123 / 255.f}, {245 / 255.f, 196 / 255.f, 173 / 255.f},
+    {221 / 255.f, 221 / 255.f, 221 / 255.f}, {184 / 255.f, 208 / 255.f, 249 / 255.f},
+    {141 / 255.f, 176 / 255.f, 254 / 255.f}, {98 / 255.f, 130 / 255.f, 234 / 255.f},
+    {59 / 255.f, 76 / 255.f, 192 / 255.f},
+};
+
 float valueOf(const Snapshot& s, int i, ColorBy by) {
   switch (by) {
     case ColorBy::Density:
@@ -158,14 +166,48 @@ float valueOf(const Snapshot& s, int i, ColorBy by) {
   return 0;
 }
 
+// A colour map's table of N entries evenly spread over t in [0, 1], interpolated linearly.
+template <int N>
+glm::vec3 lookUp(const float (&table)[N][3], float t) {
+  const float x = std::clamp(t, 0.f, 1.f) * (N - 1);
+  const int i = std::min(static_cast<int>(x), N - 2);
+  const float f = x - i;
+  return glm::mix(glm::vec3(table[i][0], table[i][1], table[i][2]),
+                  glm::vec3(table[i + 1][0], table[i + 1][1], table[i + 1][2]), f);
+}
+
 }  // namespace
 
+glm::vec3 snowWhite() {
+  return {0.93f, 0.95f, 1.0f};
+}
+
 glm::vec3 viridis(float t) {
-  const float x = std::clamp(t, 0.f, 1.f) * 255;
-  const int i = std::min(static_cast<int>(x), 254);
-  const float f = x - i;
-  return glm::mix(glm::vec3(kViridis[i][0], kViridis[i][1], kViridis[i][2]),
-                  glm::vec3(kViridis[i + 1][0], kViridis[i + 1][1], kViridis[i + 1][2]), f);
+  return lookUp(kViridis, t);
+}
+
+glm::vec3 coolWarm(float t) {
+  return lookUp(kCoolWarm, t);
+}
+
+float colourScale(double value, ColorBy by, const ColourRange& range) {
+  if (by != ColorBy::Plastic)
+    return std::clamp(static_cast<float>((value - range.low) / (range.high - range.low)), 0.f, 1.f);
+  // Each side of J_P = 1 over the log of its own end, so 1 stays in the middle.
+  if (!(value > 0)) return 0;
+  const double log_j = std::log(value);
+  const double t = log_j < 0 ? 0.5 - 0.5 * log_j / std::log(range.low)
+                             : 0.5 + 0.5 * log_j / std::log(range.high);
+  return std::clamp(static_cast<float>(t), 0.f, 1.f);
+}
+
+glm::vec3 colourMap(ColorBy by, float t) {
+  return by == ColorBy::Plastic ? coolWarm(t) : viridis(t);
+}
+
+ColourRange plasticRangeSpanning(double smallest, double largest) {
+  const double reach = std::max(std::abs(std::log(smallest)), std::abs(std::log(largest)));
+  return {std::exp(-reach), std::exp(reach)};
 }
 
 ColourRange colourRange(const RenderSettings& settings, const Snapshot& s) {
@@ -173,7 +215,7 @@ ColourRange colourRange(const RenderSettings& settings, const Snapshot& s) {
   const ColorBy by = settings.color_by;
   if (by == ColorBy::Density && s.grid.critical_density > 0)
     return {0, 2 * s.grid.critical_density};
-  if (by == ColorBy::Plastic) return {0.8, 1.2};
+  if (by == ColorBy::Plastic) return kPlasticRange;
   ColourRange range{0, 0};
   if (by == ColorBy::Density && s.density.empty()) return range;
   for (int i = 0; i < s.size() && by != ColorBy::White; ++i)
@@ -202,7 +244,7 @@ std::string colourLabel(ColorBy by, int dimension) {
     case ColorBy::Speed:
       return "speed (m/s)";
     case ColorBy::Plastic:
-      return "plastic volume ratio J_P";
+      return "plastic volume ratio J_P (log scale)";
     case ColorBy::White:
       break;
   }
@@ -210,8 +252,8 @@ std::string colourLabel(ColorBy by, int dimension) {
 }
 
 glm::vec3 particleColour(const Snapshot& s, int i, ColorBy by, const ColourRange& range) {
-  if (by == ColorBy::White || !(range.high > range.low)) return snow_white;
-  return viridis(static_cast<float>((valueOf(s, i, by) - range.low) / (range.high - range.low)));
+  if (by == ColorBy::White || !(range.high > range.low)) return snowWhite();
+  return colourMap(by, colourScale(valueOf(s, i, by), by, range));
 }
 
 }  // namespace snowsim

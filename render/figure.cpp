@@ -54,7 +54,8 @@ std::string number(double value) {
 void drawColourBar(Image& figure, int y, const ColourBar& bar) {
   const int width = std::min(480, figure.width - 2 * 40), x0 = (figure.width - width) / 2;
   for (int px = 0; px < width; ++px) {
-    const glm::vec3 c = viridis(width > 1 ? float(px) / float(width - 1) : 0.f);
+    const glm::vec3 c = colourMap(bar.plastic ? ColorBy::Plastic : ColorBy::Density,
+                                  width > 1 ? float(px) / float(width - 1) : 0.f);
     const std::uint8_t rgba[4] = {static_cast<std::uint8_t>(std::lround(255 * c.r)),
                                   static_cast<std::uint8_t>(std::lround(255 * c.g)),
                                   static_cast<std::uint8_t>(std::lround(255 * c.b)), 255};
@@ -65,6 +66,7 @@ void drawColourBar(Image& figure, int y, const ColourBar& bar) {
   drawText(figure, x0, text_y, number(bar.low), 2);
   const std::string high = number(bar.high);
   drawText(figure, x0 + width - textWidth(high, 2), text_y, high, 2);
+  if (bar.plastic) drawText(figure, x0 + (width - textWidth("1", 2)) / 2, text_y, "1", 2);
   drawText(figure, (figure.width - textWidth(bar.label, 2)) / 2, text_y + 18, bar.label, 2);
 }
 

@@ -15,10 +15,12 @@ struct Panel {
   std::string label;  // written under the panel, e.g. "t = 0.20 s"
 };
 
-// The colour map's key: viridis from `low` (left) to `high` (right), labelled with the quantity.
+// The colour map's key: viridis from `low` (left) to `high` (right), labelled with the quantity;
+// for J_P the cool-warm map over log J_P, with 1 marked in the middle (render/colour.h).
 struct ColourBar {
   std::string label;  // the quantity and its unit, e.g. "speed (m/s)"
   double low = 0, high = 1;
+  bool plastic = false;
 };
 
 // Lays rows of equally sized panels out on one image with a gap between them, the title (if any)

@@ -46,39 +46,63 @@ void groundLine(glm::vec3 extent, std::vector<float>& out) {
 }
 
 void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
-               glm::vec3 background, std::vector<float>& out) {
+               const GridCanvas& canvas, std::vector<float>& back, std::vector<float>& floor) {
   const float cell = static_cast<float>(s.grid.cell_size);
-  const glm::vec3 thin(0.36f, 0.39f, 0.45f), wall(0.75f, 0.78f, 0.85f), ground = kGroundColour;
+  const bool dark = glm::dot(canvas.background, glm::vec3(0.299f, 0.587f, 0.114f)) < 0.5f;
+  const glm::vec3 wall = dark ? glm::vec3(0.75f, 0.78f, 0.85f) : glm::vec3(0.45f, 0.48f, 0.55f);
+  const glm::vec3 thin = glm::mix(canvas.background, wall, 0.3f);
+  const glm::vec3 floor_thin = 0.6f * canvas.ground;
   const glm::vec3 centre = 0.5f * extent;
-  auto cellLine = [&](int index, glm::vec3 at, glm::vec3 step, glm::vec3 a, glm::vec3 b,
-                      glm::vec3 colour) {
-    const float opacity =
-        lineOpacity(lineLevel(index), pixelsPerCell(view, width, height, at, step));
-    if (opacity > 0) addLine(out, a, b, glm::mix(background, colour, opacity));
+  // A cell line from a to b, faded into `under` by how far apart its level's lines lie, lines a
+  // cell apart lying `pixels` apart.
+  auto cellLine = [&](std::vector<float>& out, int index, float pixels, glm::vec3 a, glm::vec3 b,
+                      glm::vec3 colour, glm::vec3 under) {
+    const float opacity = canvas.weight * lineOpacity(lineLevel(index), pixels);
+    if (opacity > 0) addLine(out, a, b, glm::mix(under, colour, opacity));
+  };
+  auto spacing = [&](glm::vec3 at, glm::vec3 step) {
+    return pixelsPerCell(view, width, height, at, step);
+  };
+  // On the floor, the closer of the two families: both are drawn at a point, or neither.
+  auto floorSpacing = [&](glm::vec3 at) {
+    return std::min(spacing(at, {cell, 0, 0}), spacing(at, {0, 0, cell}));
   };
   for (int i = 0; i <= s.grid.cells[0]; ++i) {
     const glm::vec3 a(i * cell, 0, 0), b(i * cell, extent.y, 0);
     if (i == 0 || i == s.grid.cells[0])
-      addLine(out, a, b, wall);
+      addLine(back, a, b, wall);
     else
-      cellLine(i, {i * cell, centre.y, 0}, {cell, 0, 0}, a, b, thin);
+      cellLine(back, i, spacing({i * cell, centre.y, 0}, {cell, 0, 0}), a, b, thin,
+               canvas.background);
   }
-  for (int j = 0; j <= s.grid.cells[1]; ++j) {
+  for (int j = 1; j <= s.grid.cells[1]; ++j) {
     const glm::vec3 a(0, j * cell, 0), b(extent.x, j * cell, 0);
-    if (j == 0)
-      groundLine(extent, out);
-    else if (j == s.grid.cells[1])
-      addLine(out, a, b, wall);
+    if (j == s.grid.cells[1])
+      addLine(back, a, b, wall);
     else
-      cellLine(j, {centre.x, j * cell, 0}, {0, cell, 0}, a, b, thin);
+      cellLine(back, j, spacing({centre.x, j * cell, 0}, {0, cell, 0}), a, b, thin,
+               canvas.background);
   }
-  if (s.grid.dimension != 3) return;
-  for (int k = 1; k < s.grid.cells[2]; ++k)
-    cellLine(k, {centre.x, 0, k * cell}, {0, 0, cell}, {0, 0, k * cell}, {extent.x, 0, k * cell},
-             ground);
-  addLine(out, {0, 0, extent.z}, {extent.x, 0, extent.z}, ground);
-  addLine(out, {0, 0, 0}, {0, 0, extent.z}, ground);
-  addLine(out, {extent.x, 0, 0}, {extent.x, 0, extent.z}, ground);
+  if (s.grid.dimension != 3) {
+    groundLine(extent, back);
+    return;
+  }
+  // The floor's two families, a segment a cell long at a time: a line far from the camera fades
+  // where its neighbours close up, and stays where they are apart; seen at a grazing angle, the
+  // lines across the view fade and those along it with them, so no stripes are left.
+  const int nx = s.grid.cells[0], nz = s.grid.cells[2];
+  for (int k = 1; k < nz; ++k)
+    for (int i = 0; i < nx; ++i)
+      cellLine(floor, k, floorSpacing({(i + 0.5f) * cell, 0, k * cell}), {i * cell, 0, k * cell},
+               {(i + 1) * cell, 0, k * cell}, floor_thin, canvas.ground);
+  for (int i = 1; i < nx; ++i)
+    for (int k = 0; k < nz; ++k)
+      cellLine(floor, i, floorSpacing({i * cell, 0, (k + 0.5f) * cell}), {i * cell, 0, k * cell},
+               {i * cell, 0, (k + 1) * cell}, floor_thin, canvas.ground);
+  groundLine(extent, floor);
+  addLine(floor, {0, 0, extent.z}, {extent.x, 0, extent.z}, kGroundColour);
+  addLine(floor, {0, 0, 0}, {0, 0, extent.z}, kGroundColour);
+  addLine(floor, {extent.x, 0, 0}, {extent.x, 0, extent.z}, kGroundColour);
 }
 
 void densityCells(const Snapshot& s, glm::vec3 extent, glm::vec3 background,

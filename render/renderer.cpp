@@ -20,6 +20,7 @@
 #include "render/grid_lines.h"
 #include "render/meshes.h"
 #include "render/shaders.h"
+#include "render/snow_volume.h"
 #include "sim/core/errors.h"
 
 namespace snowsim {
@@ -36,7 +37,12 @@ ColorBy parseColorBy(const std::string& name, const std::string& where) {
 Look parseLook(const std::string& name, const std::string& where) {
   if (name == "studio") return Look::Studio;
   if (name == "figure") return Look::Figure;
-  throw InputError(where + ": \"" + name + "\" is not allowed; allowed: studio, figure");
+  if (name == "volume") return Look::Volume;
+  throw InputError(where + ": \"" + name + "\" is not allowed; allowed: studio, figure, volume");
+}
+
+std::string lookName(Look look) {
+  return look == Look::Figure ? "figure" : look == Look::Volume ? "volume" : "studio";
 }
 
 void validate(const RenderSettings& s) {
@@ -64,6 +70,12 @@ void validate(const RenderSettings& s) {
     throw InputError("colour range (--color-range, render.color_range) [" +
                      numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
                      "] is empty; allowed: low < high");
+  if (s.color_range && s.color_by == ColorBy::Plastic &&
+      !(s.color_range->low > 0 && s.color_range->low < 1 && s.color_range->high > 1))
+    throw InputError("colour range (--color-range, render.color_range) [" +
+                     numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
+                     "] for --color-by plastic must hold J_P = 1 (no plastic change, the map's "
+                     "neutral middle); allowed: 0 < low < 1 < high");
 }
 
 namespace {
@@ -235,6 +247,7 @@ struct Programs {
   GLuint sphere_gbuffer, point_gbuffer, mesh_gbuffer;
   GLuint point_depth, mesh_depth;  // the key light's shadow map
   GLuint occlusion, compose;
+  GLuint volume;  // --look volume's ray march
 
   Programs() {
     using namespace shaders;
@@ -249,6 +262,7 @@ struct Programs {
     mesh_depth = link({mesh_vert}, {depth_only_frag});
     occlusion = link({fullscreen_vert}, {surface_glsl, occlusion_frag});
     compose = link({fullscreen_vert}, {surface_glsl, compose_frag});
+    volume = link({fullscreen_vert}, {volume_frag});
   }
 };
 
@@ -310,9 +324,11 @@ struct Renderer::Gl {
   ShadowMap shadow;
   GLuint sphere_vao = 0, corner_vbo = 0, instance_vbo = 0, line_vao = 0, line_vbo = 0;
   GLuint mesh_vao = 0, mesh_vbo = 0, screen_vao = 0;
-  std::vector<float> instances, lines, cells, meshes;        // per frame, reused
-  std::vector<std::uint32_t> seen_by_camera, seen_by_light;  // 3D: particles not buried
-  GLsizei ground_vertices = 0;                               // the ground leads `meshes` in 3D
+  std::vector<float> instances, lines, floor_lines, cells, meshes;  // per frame, reused
+  std::vector<std::uint32_t> seen_by_camera, seen_by_light;         // 3D: particles not buried
+  GLsizei ground_vertices = 0;  // the ground leads `meshes` in 3D
+  SnowVolume volume;            // --look volume: the snow as a medium, and its 3D texture
+  GLuint volume_texture = 0;
 
   // A run of particles in the instance buffer.
   struct Particles {
@@ -320,7 +336,8 @@ struct Renderer::Gl {
     GLsizei count = 0;
   };
 
-  void drawLines(const View& camera, float marker);
+  // Vertices of position and colour (render/grid_lines.h) as lines or triangles.
+  void drawLines(const View& camera, float marker, const std::vector<float>& vertices, GLenum mode);
   void drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count);
   // Particles of the instance buffer: impostors, or one point sprite each (round_up: sprite
   // sizes round up, shaders/points.vert).
@@ -329,24 +346,25 @@ struct Renderer::Gl {
   // The particles' centres and colours into the instance buffer: the given ones, in turn.
   void fillInstances(const Snapshot& s, const RenderSettings& settings,
                      const std::vector<const std::vector<std::uint32_t>*>& runs);
-  // 3D: shadow map, G-buffer, occlusion and lighting passes, into resolve_fbo.
+  // --look volume: `volume` into its texture, and marched over the lit image (lit_fbo).
+  void uploadVolume();
+  void drawVolume(const View& camera, const Palette& palette);
+  // 3D: shadow map, G-buffer, occlusion and lighting passes (and the volume's march), into
+  // resolve_fbo.
   void renderDeferred(const RenderSettings& settings, const View& camera, const Palette& palette,
                       glm::vec3 extent, float radius, bool sprites, GLsizei mesh_vertices,
                       Particles seen_by_camera, Particles seen_by_light);
 };
 
-void Renderer::Gl::drawLines(const View& camera, float marker) {
-  if (cells.empty() && lines.empty()) return;
+void Renderer::Gl::drawLines(const View& camera, float marker, const std::vector<float>& vertices,
+                             GLenum mode) {
+  if (vertices.empty()) return;
   setCamera(programs.line, camera);
   setUniform(programs.line, "marker", marker);
   glBindVertexArray(line_vao);
   glBindBuffer(GL_ARRAY_BUFFER, line_vbo);
-  for (const auto& [vertices, mode] : {std::pair(&cells, GL_TRIANGLES), {&lines, GL_LINES}}) {
-    if (vertices->empty()) continue;
-    glBufferData(GL_ARRAY_BUFFER, vertices->size() * sizeof(float), vertices->data(),
-                 GL_STREAM_DRAW);
-    glDrawArrays(mode, 0, static_cast<GLsizei>(vertices->size() / 6));
-  }
+  glBufferData(GL_ARRAY_BUFFER, vertices.size() * sizeof(float), vertices.data(), GL_STREAM_DRAW);
+  glDrawArrays(mode, 0, static_cast<GLsizei>(vertices.size() / 6));
 }
 
 void Renderer::Gl::drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count) {
@@ -450,13 +468,19 @@ Image Renderer::render(const Snapshot& s) {
       static_cast<float>(settings_.sphere_radius > 0 ? settings_.sphere_radius : 0.5 * spacing);
   const glm::vec4 centre_clip = camera.projection * camera.view * glm::vec4(0.5f * extent, 1.f);
   const float radius_pixels = radius * camera.projection[1][1] * 0.5f * h / centre_clip.w;
-  const bool sprites = s.size() > 0 && radius_pixels < settings_.lod_pixels;
+  // The volume look draws the spheres only into the shadow map, and is not supersampled.
+  const bool volume = settings_.look == Look::Volume && s.grid.dimension == 3;
+  const bool sprites = volume || (s.size() > 0 && radius_pixels < settings_.lod_pixels);
 
   g.cells.clear();
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
+  g.floor_lines.clear();
+  // 3D sprite frames are not supersampled: their lines a pixel wide get half the contrast.
+  const GridCanvas canvas{palette.background, palette.ground,
+                          s.grid.dimension == 3 && sprites ? 0.5f : 1.f};
   if (settings_.show_grid)
-    gridLines(s, extent, camera, w, h, palette.background, g.lines);
+    gridLines(s, extent, camera, w, h, canvas, g.lines, g.floor_lines);
   else if (s.grid.dimension == 2)
     groundLine(extent, g.lines);  // 3D frames have their ground plane
   g.meshes.clear();
@@ -478,7 +502,8 @@ Image Renderer::render(const Snapshot& s) {
     glClearColor(palette.background.r, palette.background.g, palette.background.b, 1.f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
-    g.drawLines(camera, 1.f);
+    g.drawLines(camera, 1.f, g.cells, GL_TRIANGLES);
+    g.drawLines(camera, 1.f, g.lines, GL_LINES);
     // Colliders over the grid, under the particles.
     glDisable(GL_DEPTH_TEST);
     g.drawMeshes(g.programs.mesh_forward, camera, 0, mesh_vertices);
@@ -494,7 +519,12 @@ Image Renderer::render(const Snapshot& s) {
     // Particles buried in the snow are left out of the passes that cannot see them.
     const BuriedParticles buried(s.position, static_cast<float>(spacing), radius);
     g.seen_by_camera.clear();
-    buried.visibleFromPoint(glm::vec3(glm::inverse(camera.view)[3]), g.seen_by_camera);
+    if (volume) {
+      buildSnowVolume(s, radius, key_light, g.volume);
+      g.uploadVolume();
+    } else {
+      buried.visibleFromPoint(glm::vec3(glm::inverse(camera.view)[3]), g.seen_by_camera);
+    }
     g.seen_by_light.clear();
     if (settings_.shadows) buried.visibleFromDirection(key_light, g.seen_by_light);
     g.fillInstances(s, settings_, {&g.seen_by_camera, &g.seen_by_light});
@@ -541,6 +571,49 @@ void Renderer::Gl::fillInstances(const Snapshot& s, const RenderSettings& settin
                GL_STREAM_DRAW);
 }
 
+void Renderer::Gl::uploadVolume() {
+  if (volume.empty()) return;
+  if (!volume_texture) {
+    glGenTextures(1, &volume_texture);
+    glBindTexture(GL_TEXTURE_3D, volume_texture);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+      glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
+  }
+  glBindTexture(GL_TEXTURE_3D, volume_texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexImage3D(GL_TEXTURE_3D, 0, GL_RGB16F, volume.size.x, volume.size.y, volume.size.z, 0, GL_RGB,
+               GL_FLOAT, volume.texels.data());
+}
+
+void Renderer::Gl::drawVolume(const View& camera, const Palette& palette) {
+  const GLuint program = programs.volume;
+  glUseProgram(program);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_3D, volume_texture);
+  glUniform1i(glGetUniformLocation(program, "volume_texture"), 0);
+  setTexture(program, "depth_texture", 1, deferred.depth);
+  setUniform(program, "clip_to_world", glm::inverse(camera.projection * camera.view));
+  setUniform(program, "eye", glm::vec3(glm::inverse(camera.view)[3]));
+  setUniform(program, "volume_origin", volume.origin);
+  setUniform(program, "volume_size", glm::vec3(volume.size));
+  setUniform(program, "spacing", volume.spacing);
+  setUniform(program, "box_low", volume.low);
+  setUniform(program, "box_high", volume.high);
+  setUniform(program, "snow_albedo", snowWhite());
+  // The medium scatters the same in every direction, with no surface's cosine to dim the key
+  // light or tilt to choose between sky and bounce: weights that make lit snow about as bright
+  // as the studio look's lit spheres.
+  setUniform(program, "key_color", 1.1f * palette.key);
+  setUniform(program, "sky_color", 0.8f * palette.sky);
+  setUniform(program, "bounce_color", 0.5f * palette.bounce);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ONE, GL_SRC_ALPHA);  // the scattered light, over the image behind times T
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glDisable(GL_BLEND);
+}
+
 void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& camera,
                                   const Palette& palette, glm::vec3 extent, float radius,
                                   bool sprites, GLsizei mesh_vertices, Particles seen_by_camera,
@@ -565,7 +638,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   }
 
   // The G-buffer: the ground (pushed back, so grid lines and colliders on it win), the
-  // colliders, the grid as unlit lines, the spheres.
+  // colliders, the back wall's lines unlit and the floor's lit as the ground is, the spheres.
   glBindFramebuffer(GL_FRAMEBUFFER, g.deferred.gbuffer_fbo);
   glViewport(0, 0, gw, gh);
   const float no_albedo[] = {0, 0, 0, 0}, facing_normal[] = {0.5f, 0.5f, 1, 1}, far = 1;
@@ -581,9 +654,11 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   glDisable(GL_POLYGON_OFFSET_FILL);
   // The line shader writes no normal: unmasked, the normal target would get whatever llvmpipe
   // leaves in an unwritten output (it differed between identical runs). Masked, it keeps the
-  // normal of the surface the line lies on, which the occlusion pass reads there.
+  // normal of the surface the line lies on, which the occlusion pass reads there, and the
+  // lighting pass for the floor's lines.
   glColorMaski(1, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-  g.drawLines(camera, 0.5f);
+  g.drawLines(camera, 0.5f, g.lines, GL_LINES);
+  g.drawLines(camera, 1.f, g.floor_lines, GL_LINES);
   glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);
@@ -634,6 +709,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   setUniform(p.compose, "bounce_color", palette.bounce);
   setUniform(p.compose, "background", palette.background);
   glDrawArrays(GL_TRIANGLES, 0, 3);
+  if (settings.look == Look::Volume && !g.volume.empty()) g.drawVolume(camera, palette);
 
   // Down to the image: a 2x2 box filter for supersampled frames (linear filtering at half scale).
   glBindFramebuffer(GL_READ_FRAMEBUFFER, g.deferred.lit_fbo);

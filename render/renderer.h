@@ -4,7 +4,8 @@
 // right), drawn deferred: a G-buffer of the spheres, ground and colliders, then one lighting pass
 // with a key light and its shadow map, a sky fill and screen-space ambient occlusion. Spheres a
 // few pixels wide are point sprites instead of ray-cast impostors; particles buried in packed snow
-// are left out of the passes that cannot see them (docs/rendering.md).
+// are left out of the passes that cannot see them. The volume look marches the snow's density
+// over the lit ground and colliders instead of drawing spheres (docs/rendering.md).
 #pragma once
 
 #include <array>
@@ -18,18 +19,22 @@
 
 namespace snowsim {
 
-// Plastic: MPM's plastic volume ratio J_P (white at 1, red where compressed, blue where
-// stretched); the snapshot must carry plastic_j.
+// Plastic: MPM's plastic volume ratio J_P (light grey at 1, red where compressed, blue where
+// stretched, render/colour.h); the snapshot must carry plastic_j.
 enum class ColorBy { White, Density, Speed, Plastic };
 
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
 ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
 
-// Studio: a dark background (the report's). Figure: white, like a paper's figure.
-enum class Look { Studio, Figure };
+// Studio: a dark background (the report's). Figure: white, like a paper's figure. Volume (3D):
+// the studio's, with the snow as a ray-marched density volume instead of spheres.
+enum class Look { Studio, Figure, Volume };
 
-// Parses "studio", "figure"; throws InputError listing the allowed names.
+// Parses "studio", "figure", "volume"; throws InputError listing the allowed names.
 Look parseLook(const std::string& name, const std::string& where = "--look");
+
+// The name parseLook reads.
+std::string lookName(Look look);
 
 // The values the colour map spans: low is its first colour, high its last.
 struct ColourRange {

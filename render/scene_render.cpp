@@ -1,5 +1,7 @@
 #include "render/scene_render.h"
 
+#include "render/colour.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -37,6 +39,7 @@ std::optional<ColourRange> physicalColourRange(const Scene& scene, ColorBy by) {
     for (const Body& body : scene.bodies) densest = std::max(densest, body.density);
     return ColourRange{0, 2 * densest};
   }
+  if (by == ColorBy::Plastic && scene.solver == SolverType::Mpm) return kPlasticRange;
   if (by == ColorBy::Speed) {
     double fastest = 0;
     for (const Body& body : scene.bodies)

@@ -22,8 +22,8 @@ void fitToScene(RenderSettings& settings, const Scene& scene, const Snapshot& fi
 // The range a quantity can reach in a run of the scene, known before it runs. Density: the
 // report's method colours against twice its critical density (none here); MPM from 0 to twice
 // the densest body's rest density. Speed: from 0 to the fastest body's initial speed plus the
-// speed of a fall through the domain's height, sqrt(2 |g| H). Plastic: none (the renderer's
-// 0.8 to 1.2).
+// speed of a fall through the domain's height, sqrt(2 |g| H). Plastic (MPM): J_P from a quarter
+// to four (kPlasticRange, render/colour.h).
 std::optional<ColourRange> physicalColourRange(const Scene& scene, ColorBy by);
 
 }  // namespace snowsim

@@ -19,4 +19,5 @@ extern const char* const fullscreen_vert;
 extern const char* const surface_glsl;
 extern const char* const occlusion_frag;
 extern const char* const compose_frag;
+extern const char* const volume_frag;
 }  // namespace snowsim::shaders

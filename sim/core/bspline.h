@@ -91,4 +91,18 @@ struct Stencil {
   }
 };
 
+// Calls f(i, j, k, w) for each node (i h, j h, k h) of the 3D quadratic stencil of a point x (m),
+// w = N(x/h - i) N(y/h - j) N(z/h - k): the weights w_ip a particle's mass is transferred with,
+// for rasterising particles outside the solver (the VDB export, the renderer's snow volume).
+template <class Point, class F>
+void forEachQuadraticNode(const Point& x, double h, F&& f) {
+  double w[3][3], dw[3][3];
+  int base[3];
+  for (int a = 0; a < 3; ++a) base[a] = QuadraticBSpline::weights(x[a] / h, w[a], dw[a]);
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i)
+        f(base[0] + i, base[1] + j, base[2] + k, w[0][i] * w[1][j] * w[2][k]);
+}
+
 }  // namespace snowsim

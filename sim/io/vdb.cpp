@@ -36,20 +36,14 @@ void writeVdb(const std::string& path, const Snapshot& s, UpAxis up) {
     auto mass_at = mass->getAccessor();
     auto momentum_at = momentum->getAccessor();
     for (int p = 0; p < s.size(); ++p) {
-      double w[3][3], dw[3][3];
-      int base[3];
-      for (int a = 0; a < 3; ++a)
-        base[a] = QuadraticBSpline::weights(s.position[p][a] / h, w[a], dw[a]);
       const auto v = toUpAxis(s.velocity[p], up);
-      for (int k = 0; k < 3; ++k)
-        for (int j = 0; j < 3; ++j)
-          for (int i = 0; i < 3; ++i) {
-            const float m = static_cast<float>(s.mass[p] * w[0][i] * w[1][j] * w[2][k]);
-            const openvdb::Coord voxel = voxelOf(base[0] + i, base[1] + j, base[2] + k, up);
-            mass_at.setValue(voxel, mass_at.getValue(voxel) + m);
-            momentum_at.setValue(
-                voxel, momentum_at.getValue(voxel) + openvdb::Vec3s(v[0], v[1], v[2]) * m);
-          }
+      forEachQuadraticNode(s.position[p], h, [&](int i, int j, int k, double w) {
+        const float m = static_cast<float>(s.mass[p] * w);
+        const openvdb::Coord voxel = voxelOf(i, j, k, up);
+        mass_at.setValue(voxel, mass_at.getValue(voxel) + m);
+        momentum_at.setValue(voxel,
+                             momentum_at.getValue(voxel) + openvdb::Vec3s(v[0], v[1], v[2]) * m);
+      });
     }
   }
   auto density = openvdb::FloatGrid::create(0.f);

@@ -164,10 +164,10 @@ struct SceneRender {
   std::optional<bool> density_cells;                 // 2D: shade each cell by its density
   std::optional<SceneCamera> camera;                 // 3D; none: the three-quarter preset
   std::optional<std::array<double, 2>> color_range;  // the values the colour map spans, low < high
-  std::optional<std::string> look;                   // "studio" (dark background) or "figure"
-  std::optional<Vec3> background;                    // RGB, each in [0, 1]; none: the look's
-  std::optional<bool> shadows;                       // 3D: the key light casts shadows
-  std::optional<bool> occlusion;                     // 3D: ambient occlusion between spheres
+  std::optional<std::string> look;  // "studio" (dark background), "figure" or "volume"
+  std::optional<Vec3> background;   // RGB, each in [0, 1]; none: the look's
+  std::optional<bool> shadows;      // 3D: the key light casts shadows
+  std::optional<bool> occlusion;    // 3D: ambient occlusion between spheres
 };
 
 // The scene's `output` object: when `snowsim run` writes checkpoints (docs/checkpoints.md). A

@@ -981,7 +981,8 @@ TEST(Cli, FigureRegeneratesAReportFigureAsAStrip) {
 }
 
 // Any scene's strip, here a 3D one coloured by J_P: the panels at the times asked, the title
-// above and a viridis colour bar below, dark violet at its low end and yellow at its high end.
+// above and J_P's colour bar below: red at its low (compressed) end, grey in the middle (J_P = 1)
+// and blue at its high (stretched) end.
 TEST(Cli, FigureOfAnyScene) {
   const fs::path out = freshDir("scene_figure");
   const Result r =
@@ -993,9 +994,10 @@ TEST(Cli, FigureOfAnyScene) {
   EXPECT_EQ(image.height, 44 + 8 + (120 + 34 + 8) + 64);
   const int bar_y = image.height - 64 + 9, bar_x0 = 40, bar_x1 = image.width - 40 - 1;
   const auto *low = image.pixel(bar_x0, bar_y), *high = image.pixel(bar_x1, bar_y);
-  EXPECT_GT(low[2], low[1] + 50) << "viridis starts dark violet";
-  EXPECT_GT(high[0], 200) << "and ends yellow";
-  EXPECT_LT(high[2], 80);
+  const auto* middle = image.pixel((bar_x0 + bar_x1) / 2, bar_y);
+  EXPECT_GT(low[0], low[2] + 100) << "red at the compressed end";
+  EXPECT_GT(high[2], high[0] + 100) << "blue at the stretched end";
+  EXPECT_LT(std::abs(middle[0] - middle[2]), 10) << "grey in the middle";
 
   const Result late =
       runSnowsim("figure " + scene("study_smash_3d") + " --times 0,9 -o " + out.string());

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "render/colour.h"
 #include "render/renderer.h"
 #include "sim/core/errors.h"
 #include "tests/support/temp_dir.h"
@@ -175,19 +176,43 @@ TEST(Renderer, BadSettingsAreInputErrors) {
   EXPECT_THROW(parseColorBy("temperature"), InputError);
 }
 
-TEST(Renderer, PlasticColouringShowsCompressionAndStretch) {
+// J_P's colours are a diverging map over log J_P: 1 the neutral grey in the middle, compressed
+// warm, stretched cool, a halving and a doubling alike in lightness, and the ends of the default
+// range (a quarter, four times) the map's two ends; beyond them the colour stays.
+TEST(Renderer, PlasticColouringIsSymmetricInLog) {
+  EXPECT_FLOAT_EQ(colourScale(1, ColorBy::Plastic, kPlasticRange), 0.5f);
+  EXPECT_FLOAT_EQ(colourScale(0.5, ColorBy::Plastic, kPlasticRange) +
+                      colourScale(2, ColorBy::Plastic, kPlasticRange),
+                  1.f);
+  EXPECT_FLOAT_EQ(colourScale(0.25, ColorBy::Plastic, kPlasticRange), 0.f);
+  EXPECT_FLOAT_EQ(colourScale(4, ColorBy::Plastic, kPlasticRange), 1.f);
+  EXPECT_FLOAT_EQ(colourScale(1, ColorBy::Plastic, {0.5, 4}), 0.5f) << "1 stays in the middle";
+
   Renderer renderer(testSettings(ColorBy::Plastic));
   Snapshot s = emptyDomain(2);
-  s.grid.particle_spacing = 0.01;
-  addParticle(s, 0.025, 0.06, 0);
-  addParticle(s, 0.075, 0.06, 0);
-  s.plastic_j = {0.85f, 1.15f};
+  s.grid.particle_spacing = 0.012;
+  const float j[] = {0.1f, 0.25f, 0.5f, 1, 2, 4, 10};
+  for (int i = 0; i < 7; ++i) addParticle(s, 0.014f * i + 0.008f, 0.06f, 0);
+  s.plastic_j.assign(std::begin(j), std::end(j));
   const Image image = renderer.render(s);
-  const auto [cx, cy] = pixelOf(0.025, 0.06);
-  const auto [sx, sy] = pixelOf(0.075, 0.06);
-  EXPECT_GT(image.pixel(cx, cy)[2], image.pixel(cx, cy)[1] + 40) << "compressed: dark violet";
-  EXPECT_GT(luminance(image.pixel(sx, sy)), luminance(image.pixel(cx, cy)) + 80)
-      << "stretched: bright";
+  auto at = [&](int i) {
+    const auto [x, y] = pixelOf(0.014 * i + 0.008, 0.06);
+    return image.pixel(x, y);
+  };
+  const std::uint8_t* neutral = at(3);
+  EXPECT_LT(std::abs(neutral[0] - neutral[2]), 8) << "J_P = 1: grey";
+  EXPECT_LT(std::abs(neutral[0] - neutral[1]), 8);
+  EXPECT_GT(at(2)[0], at(2)[2] + 40) << "compressed: warm";
+  EXPECT_GT(at(4)[2], at(4)[0] + 40) << "stretched: cool";
+  EXPECT_NEAR(luminance(at(2)), luminance(at(4)), 12) << "halved and doubled alike";
+  EXPECT_GT(at(1)[0], 4 * at(1)[1]) << "a quarter: the deep red end";
+  EXPECT_GT(at(5)[2], 2 * at(5)[0]) << "four times: the deep blue end";
+  EXPECT_LE(colourDistance(at(0), at(1)), 10) << "beyond the range: the end's colour";
+  EXPECT_LE(colourDistance(at(6), at(5)), 10);
+
+  RenderSettings without_one = testSettings(ColorBy::Plastic);
+  without_one.color_range = ColourRange{1.1, 2};
+  EXPECT_THROW(validate(without_one), InputError) << "the range must hold J_P = 1";
   s.plastic_j.clear();
   EXPECT_THROW(renderer.render(s), InputError) << "the report's method has no J_P";
 }
@@ -265,14 +290,41 @@ double highFrequencyEnergy(const Image& image) {
 }
 
 // A 3D domain of 120x80x80 cells of 5 mm at the default 1280x720: drawing every cell line (the
-// back wall's 3-4 pixels apart, the floor's one or two) gives 2.35; the lines a viewer can
-// resolve, 1.1.
+// back wall's 3-4 pixels apart, the floor's one or two) gives 2.23; the lines a viewer can
+// resolve, 0.78.
 TEST(Renderer, FineGridsRenderWithoutMoire) {
   Snapshot s;
   s.grid.dimension = 3;
   s.grid.cells = {120, 80, 80};
   s.grid.cell_size = 0.005;
   EXPECT_LT(highFrequencyEnergy(Renderer(RenderSettings{}).render(s)), 1.6);
+}
+
+// The figure look's back grid at 640x360 stays a light grid, not a dark mesh: seen from the front,
+// a wall of 60x40 cells of 1 cm (the flagship smash at --scale 0.5) lies about 7 pixels a cell,
+// and a small particle makes the frame one of sprites, not supersampled. The ink is how far
+// below the white background the wall's pixels are, on average.
+TEST(Renderer, FigureGridStaysLightAtSmallSizes) {
+  Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {60, 40, 40};
+  s.grid.cell_size = 0.01;
+  s.grid.particle_spacing = 0.005;
+  addParticle(s, 0.05, 0.35, 0.2);
+  RenderSettings settings;
+  settings.width = 640;
+  settings.height = 360;
+  settings.look = Look::Figure;
+  settings.camera.custom = true;
+  settings.camera.eye = {0.3, 0.2, 1.4};
+  settings.camera.target = {0.3, 0.2, 0};
+  const Image image = Renderer(settings).render(s);
+  double ink = 0;
+  int pixels = 0;
+  for (int y = 100; y < 260; ++y)
+    for (int x = 220; x < 420; ++x, ++pixels) ink += 255 - luminance(image.pixel(x, y));
+  EXPECT_GT(ink / pixels, 1) << "the grid is drawn";
+  EXPECT_LT(ink / pixels, 8) << "and light";
 }
 
 // The preset camera frames the snow's box: a small ball in a corner of a large domain fills the

@@ -165,7 +165,7 @@ class CrackOpening {
       t.scatterAffineSplit(m, mv, A, mass, momentum, field);
       int n = 0;
       t.forEachNode([&](int k, T w, const V& dx) {
-        g.touched[k] = 1;
+        g.touched[k] |= normals ? touched_sides | touched_normals : touched_sides;
         if (normals) g.normal[field(n)][k] += (w * m) * dx;
         ++n;
       });
@@ -180,14 +180,11 @@ class CrackOpening {
   template <class Collide>
   void updateNode(int k, T mass0, V& v0, T dt, const V& gravity, Collide&& collide) {
     // A node that no particle with sides reached has side 0 alone, and its other fields' partial
-    // sums are zero: no particle gathers from them there.
-    bool touched = false;
-    for (Partial& g : partial_)
-      if (g.touched[k]) {
-        touched = true;
-        g.touched[k] = 0;
-      }
-    if (!touched) {
+    // sums are zero: no particle gathers from them there. Nor do the colours no such particle
+    // reached hold anything there, nor their normals where none near grains did.
+    char any = 0;
+    for (const Partial& g : partial_) any |= g.touched[k];
+    if (!any) {
       if (mass0 > 0) collide(v0);
       return;
     }
@@ -196,6 +193,9 @@ class CrackOpening {
     V normal[2] = {V::Zero(), V::Zero()};
     for (int f = 1; f < 3; ++f) velocity[f]->setZero();
     for (Partial& g : partial_) {
+      const char touched = g.touched[k];
+      if (!touched) continue;
+      g.touched[k] = 0;
       for (int f = 1; f < 3; ++f) {
         T& m = g.mass[f - 1][k];  // the partial arrays hold fields 1 and 2 only
         V& momentum = g.momentum[f - 1][k];
@@ -206,9 +206,10 @@ class CrackOpening {
           momentum.setZero();
         }
       }
+      if (!(touched & touched_normals)) continue;
       for (int side = 0; side < 2; ++side) {
         normal[side] += g.normal[side][k];
-        if (!g.normal[side][k].isZero(0)) g.normal[side][k].setZero();
+        g.normal[side][k].setZero();
       }
     }
     for (int f = 1; f < 3; ++f)
@@ -266,6 +267,9 @@ class CrackOpening {
   static void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
     withStencil<Kernel>(grid, x, [&](const auto& t) { t.forEachNode(f); });
   }
+  // Bits of Partial::touched: a particle with sides scattered to the node; one near grains, its
+  // normal too.
+  static constexpr char touched_sides = 1, touched_normals = 2;
   template <class U>
   using ZeroPageVector = std::vector<U, ZeroPageAllocator<U>>;
   // What one colour's rows scatter. Grid-sized, only the nodes near the snow take memory, and
@@ -276,7 +280,7 @@ class CrackOpening {
     ZeroPageVector<V> normal[2];  // each side's outward normal
     ZeroPageVector<T> mass[2];    // side 1, grains
     ZeroPageVector<V> momentum[2];
-    ZeroPageVector<char> touched;  // a particle with sides scattered here
+    ZeroPageVector<char> touched;  // what particles with sides scattered here (touched_*)
     void resize(int nodes) {
       for (auto* a : {&damage_mass, &damage, &grains, &reference_norm, &mass[0], &mass[1]})
         a->resize(nodes);

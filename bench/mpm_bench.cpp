@@ -2,7 +2,9 @@
 // quadratic weights, in double and in float (mpm.precision), 1 and 2 threads (whether they agree
 // bit for bit, and what two one-thread solvers side by side reach), bytes per particle; with
 // "profile", also where each step's time goes, stage by stage and thread by thread.
-// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d]
+// "cracks" (not in "all") prints what a step with open cracks costs against a plain step on the
+// same snow, stretched and partly failed (measureCracks).
+// Usage: mpm_bench [steps=100] [repetitions=5] [case: all | 2d-small | 2d-large | 3d | cracks]
 //                  [double | float | both=both] [profile] [one-thread]
 // "one-thread" runs only the one-thread solver: under callgrind (which runs one thread at a time)
 // its instruction counts are those of the steps alone, where a side-by-side solver would step on
@@ -16,9 +18,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <thread>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "sim/mpm/mpm_solver.h"
@@ -64,9 +69,10 @@ using StageProfile = std::vector<std::vector<StageTime>>;
 // Particle-steps per second of one run of the scene on the given thread count; its positions,
 // and, if asked for, how many times its particles were binned and its stage profile.
 template <int D, class T>
-double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& positions,
-           StageProfile* profile = nullptr, long* binnings = nullptr) {
-  MpmSolver<D, T> s(scene, sampleBodies<D>(scene), threads);
+double run(const Scene& scene, const Particles<D>& start, int threads, int steps,
+           std::vector<Vec<D>>& positions, StageProfile* profile = nullptr,
+           long* binnings = nullptr) {
+  MpmSolver<D, T> s(scene, start, threads);
   const Real dt = 0.5 * s.cflTimeStep();
   s.profileStages(profile != nullptr);
   const auto t0 = std::chrono::steady_clock::now();
@@ -87,8 +93,8 @@ double run(const Scene& scene, int threads, int steps, std::vector<Vec<D>>& posi
 // The binning's stages run every step in 3D but rarely in 2D (the bench prints how often), the
 // sort's at most every 16th step: their figures are what they cost spread over the steps.
 template <int D, class T>
-void profile(const std::string& label, const Json& j, int steps, int reps) {
-  const Scene scene = parseScene(j, "bench");
+void profile(const std::string& label, const Scene& scene, const Particles<D>& start, int steps,
+             int reps) {
   enum Column { alone, work0, wait0, work1, wait1, columns };
   std::vector<std::string_view> stages;  // in the order first met
   std::map<std::string_view, std::array<std::vector<double>, columns>> samples;
@@ -99,9 +105,9 @@ void profile(const std::string& label, const Json& j, int steps, int reps) {
   std::vector<Vec<D>> positions;
   StageProfile one, two;
   for (int r = 0; r < reps; ++r) {
-    run<D, T>(scene, 1, steps, positions, &one);
+    run<D, T>(scene, start, 1, steps, positions, &one);
     for (const StageTime& t : one[0]) add(t.stage, alone, t.work_seconds);
-    run<D, T>(scene, 2, steps, positions, &two);
+    run<D, T>(scene, start, 2, steps, positions, &two);
     for (int thread = 0; thread < std::min<int>(2, two.size()); ++thread)
       for (const StageTime& t : two[thread]) {
         add(t.stage, thread == 0 ? work0 : work1, t.work_seconds);
@@ -161,20 +167,21 @@ double sideBySideRate(const Scene& scene, int steps) {
 template <int D, class T>
 void measure(const std::string& label, const Json& j, int steps, int reps, bool one_thread_only) {
   const Scene scene = parseScene(j, "bench");
+  const Particles<D> start = sampleBodies<D>(scene);
   std::vector<Vec<D>> one_thread, two_threads;
   std::vector<double> rate1, rate2, ratio, ceiling;
   long binnings = 0;
   if (one_thread_only) {
-    for (int r = 0; r < reps; ++r) rate1.push_back(run<D, T>(scene, 1, steps, one_thread));
+    for (int r = 0; r < reps; ++r) rate1.push_back(run<D, T>(scene, start, 1, steps, one_thread));
     std::printf("%s: %zu particles, 1 thread %.2f M particle-steps/s\n", label.c_str(),
                 one_thread.size(), median(rate1) / 1e6);
     return;
   }
   for (int r = 0; r < reps; ++r) {
     const double side_by_side = sideBySideRate<D, T>(scene, steps);
-    rate1.push_back(run<D, T>(scene, 1, steps, one_thread, nullptr, &binnings));
+    rate1.push_back(run<D, T>(scene, start, 1, steps, one_thread, nullptr, &binnings));
     ceiling.push_back(side_by_side / rate1.back());
-    rate2.push_back(run<D, T>(scene, 2, steps, two_threads));
+    rate2.push_back(run<D, T>(scene, start, 2, steps, two_threads));
     ratio.push_back(rate2.back() / rate1.back());
   }
   // x, v; mass, volume, J_P, hardening and the spare buffer the particles are sorted through (a
@@ -187,6 +194,81 @@ void measure(const std::string& label, const Json& j, int steps, int reps, bool 
       "times in %d steps\n",
       label.c_str(), one_thread.size(), median(rate1) / 1e6, median(rate2) / 1e6, median(ratio),
       median(ceiling), one_thread == two_threads ? "yes" : "NO", bytes, binnings, steps);
+}
+
+// The crack smash (scenes/flagship/smash_wall_cracks.json) at cell 10 mm: a ball of radius 0.1 m
+// thrown at 4 m/s into a sticky wall, snow that fails past ln J_P = 0.3; cracks open or not.
+Json crackSceneJson(bool open_cracks) {
+  Json j = Json::parse(R"({"name": "bench cracks", "dimension": 3, "solver": "mpm",
+    "grid": {"cells": [60, 40, 40], "cell_size": 0.01}, "particles_per_cell": 8,
+    "mpm": {"transfer": "mls", "kernel": "quadratic", "crack_friction": 0.6,
+            "walls": {"type": "separating", "friction": 0.3}},
+    "material": {"xi": 10, "hardening_min": 0.2, "hardening_max": 5, "viscosity": 4,
+                 "fracture_strain": 0.3},
+    "bodies": [{"shape": "ball", "center": [0.3, 0.2, 0.2], "radius": 0.1, "velocity": [4, 0, 0]}],
+    "colliders": [{"shape": "box", "position": [0.55, 0.2, 0.2], "size": [0.1, 0.4, 0.4],
+                   "type": "sticky"}]})");
+  j["mpm"]["open_cracks"] = open_cracks;
+  return j;
+}
+
+// The shares of snow stretched past J_P = 1 (damaged) and with no strength left (failed).
+template <class T>
+std::pair<double, double> damagedAndFailed(const SnowMaterial& m, const std::vector<T>& J_P) {
+  long damaged = 0, failed = 0;
+  for (const T j : J_P) {
+    damaged += j > 1;
+    failed += strengthLeft<T>(m, j) <= 0;
+  }
+  return {double(damaged) / J_P.size(), double(failed) / J_P.size()};
+}
+
+// A crack step against a plain step on the same particles: the crack smash run with cracks open
+// through its impact, then its particles and their J_P (F_E starts unstrained) as the start of
+// both solvers, one with cracks open, one without. Both step at the start's stable step; each
+// pair of runs alternates, and the cost is the median of the pairs' ratios.
+template <class T>
+void measureCracks(int steps, int reps, bool profiled, bool one_thread_only) {
+  constexpr Real impact = 0.05;  // s: the ball met the wall at 0.025 s
+  Scene cracks = parseScene(crackSceneJson(true), "bench cracks");
+  Scene plain = parseScene(crackSceneJson(false), "bench cracks");
+  MpmSolver<3, T> warm(cracks, sampleBodies<3>(cracks), one_thread_only ? 1 : 2);
+  for (Real t = 0; t < impact;) {
+    const Real dt = std::min(warm.stableTimeStep(), impact - t);
+    warm.step(dt);
+    t += dt;
+  }
+  const Particles<3> start = warm.particles();
+  auto points = std::make_shared<Snapshot>();
+  points->plastic_j.assign(warm.plasticJ().begin(), warm.plasticJ().end());
+  for (Scene* s : {&cracks, &plain}) s->bodies[0].points = points;
+  const auto [damaged, failed] = damagedAndFailed(warm.material(), warm.plasticJ());
+  std::printf("cracks, %s: %d particles at t = %.2f s, %.2f stretched past J_P = 1, %.2f failed\n",
+              std::is_same_v<T, float> ? "float" : "double", start.size(), impact, damaged, failed);
+  std::vector<Vec<3>> crack1, crack2, plain1, plain2;
+  std::vector<double> rate[2][2], cost[2];  // [cracks open][threads - 1]; [threads - 1]
+  const int most_threads = one_thread_only ? 1 : 2;
+  for (int r = 0; r < reps; ++r)
+    for (int threads = 1; threads <= most_threads; ++threads) {
+      const double open = run<3, T>(cracks, start, threads, steps, threads == 1 ? crack1 : crack2);
+      const double closed = run<3, T>(plain, start, threads, steps, threads == 1 ? plain1 : plain2);
+      rate[1][threads - 1].push_back(open);
+      rate[0][threads - 1].push_back(closed);
+      cost[threads - 1].push_back(closed / open);
+    }
+  for (int threads = 1; threads <= most_threads; ++threads)
+    std::printf(
+        "  %d thread%s: cracks open %.2f M particle-steps/s, plain %.2f M/s: a crack step costs "
+        "x%.2f a plain one\n",
+        threads, threads == 1 ? "" : "s", median(rate[1][threads - 1]) / 1e6,
+        median(rate[0][threads - 1]) / 1e6, median(cost[threads - 1]));
+  if (!one_thread_only)
+    std::printf("  %d steps; bit-identical on 1 and 2 threads: cracks open %s, plain %s\n", steps,
+                crack1 == crack2 ? "yes" : "NO", plain1 == plain2 ? "yes" : "NO");
+  if (profiled) {
+    profile<3, T>("cracks open", cracks, start, steps, reps);
+    profile<3, T>("plain", plain, start, steps, reps);
+  }
 }
 
 // Nanoseconds for two threads to pass one cache line there and back: what each line costs that
@@ -223,8 +305,9 @@ int main(int argc, char** argv) {
   const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
   const int reps = argc > 2 ? std::atoi(argv[2]) : 5;
   const std::string only = argc > 3 ? argv[3] : "all";
-  if (only != "all" && only != "2d-small" && only != "2d-large" && only != "3d") {
-    std::fprintf(stderr, "mpm_bench: case '%s' is not one of all, 2d-small, 2d-large, 3d\n",
+  if (only != "all" && only != "2d-small" && only != "2d-large" && only != "3d" &&
+      only != "cracks") {
+    std::fprintf(stderr, "mpm_bench: case '%s' is not one of all, 2d-small, 2d-large, 3d, cracks\n",
                  only.c_str());
     return 2;
   }
@@ -244,6 +327,11 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (only == "cracks") {
+    if (precision != "float") measureCracks<double>(steps, reps, profiled, one_thread_only);
+    if (precision != "double") measureCracks<float>(steps, reps, profiled, one_thread_only);
+    return 0;
+  }
   if (!one_thread_only) {
     if (const double round_trip = coreToCoreRoundTrip(); round_trip > 0)
       std::printf("core-to-core round trip %.0f ns\n", round_trip);
@@ -252,7 +340,10 @@ int main(int argc, char** argv) {
   }
   const auto benchIn = [&]<int D, class T>(const std::string& label, const Json& scene) {
     measure<D, T>(label, scene, steps, reps, one_thread_only);
-    if (profiled) profile<D, T>(label, scene, steps, reps);
+    if (profiled) {
+      const Scene s = parseScene(scene, "bench");
+      profile<D, T>(label, s, sampleBodies<D>(s), steps, reps);
+    }
   };
   const auto bench = [&]<int D>(const std::string& label, const Json& scene) {
     if (precision != "float") benchIn.operator()<D, double>(label + ", double", scene);

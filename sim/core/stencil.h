@@ -1,6 +1,7 @@
 // Visiting the grid nodes of one particle's B-spline stencil, shared by every solver.
 #pragma once
 
+#include <algorithm>
 #include <type_traits>
 #include <utility>
 
@@ -103,23 +104,8 @@ class TensorStencil {
   // stencil.
   [[gnu::always_inline]] void scatterAffine(T m, const V& v, const M& A, T* mass,
                                             V* momentum) const {
-    // The value node o of row (o1, o2) takes is w_0(o) (v + A.col(0) dx_0(o)) plus w_0(o) times
-    // A.col(1) dx_1(o1) and A.col(2) dx_2(o2): a row's values are along1[o1] + along2[o2].
     T inner_mass[row_nodes] = {}, along[D - 1][S][row_values] = {};
-#pragma GCC unroll 16
-    for (int o = 0; o < S; ++o) {
-      const T w0 = s_.w[0][o];
-      inner_mass[o] = w0 * m;
-#pragma GCC unroll 16
-      for (int c = 0; c < D; ++c) {
-#pragma GCC unroll 16
-        for (int o1 = 0; o1 < S; ++o1)
-          along[0][o1][o * D + c] = w0 * (v[c] + A(c, 0) * dx_[0][o] + A(c, 1) * dx_[1][o1]);
-        if constexpr (D == 3)
-#pragma GCC unroll 16
-          for (int o2 = 0; o2 < S; ++o2) along[1][o2][o * D + c] = w0 * (A(c, 2) * dx_[2][o2]);
-      }
-    }
+    affineParts(m, v, A, inner_mass, along);
     // The grid is read and written a scalar at a time: the next particle's rows start a node or
     // two from this one's, and a load that straddles two earlier vector stores waits for both to
     // reach the cache, where one the width of the store it reads takes the value on the way.
@@ -144,15 +130,140 @@ class TensorStencil {
     }
   }
 
+  // Adds w_ip values[f] to fields[f][i] for every node i of the stencil and each of the n fields
+  // (the mass of scatterAffine, rounded alike).
+  template <int n>
+  [[gnu::always_inline]] void scatterScalars(const T (&values)[n], T* const (&fields)[n]) const {
+    T inner[n][row_nodes] = {};
+#pragma GCC unroll 16
+    for (int f = 0; f < n; ++f)
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) inner[f][o] = s_.w[0][o] * values[f];
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T w = row_weight_[r];
+#pragma GCC unroll 16
+      for (int f = 0; f < n; ++f) {
+        T* row = fields[f] + row_index_[r];
+#pragma GCC unroll 16
+        for (int o = 0; o < S; ++o) row[o] += w * inner[f][o];
+      }
+    }
+  }
+
+  // Returns sum_i w_ip f_i (x_i - x_p) of the scalar field f (gatherAffine's moment, one channel).
+  [[gnu::always_inline]] V gatherScalarMoment(const T* field) const {
+    T across[D][row_nodes] = {};  // [0]: sum_r w_r f; [a]: sum_r w_r dx_a f
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T* row = field + row_index_[r];
+      const T w = row_weight_[r];
+      const T w1 = w * dx_[1][r % S], w2 = D == 3 ? w * dx_[D - 1][r / S] : T(0);
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) {
+        across[0][o] += w * row[o];
+        across[1][o] += w1 * row[o];
+        if constexpr (D == 3) across[2][o] += w2 * row[o];
+      }
+    }
+    V moment = V::Zero();
+#pragma GCC unroll 16
+    for (int o = 0; o < S; ++o) {
+      const T w0 = s_.w[0][o];
+      moment[0] += w0 * dx_[0][o] * across[0][o];
+#pragma GCC unroll 16
+      for (int a = 1; a < D; ++a) moment[a] += w0 * across[a][o];
+    }
+    return moment;
+  }
+
+  // The largest f_i over the nodes of the stencil.
+  [[gnu::always_inline]] T largest(const T* field) const {
+    T most = field[row_index_[0]];
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r)
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) most = std::max(most, field[row_index_[r] + o]);
+    return most;
+  }
+
+  // f(i, w_ip, x_i - x_p) for every node i of the stencil, row by row.
+  template <class F>
+  [[gnu::always_inline]] void forEachNode(F&& f) const {
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r)
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) {
+        V dx;
+        dx[0] = dx_[0][o];
+        dx[1] = dx_[1][r % S];
+        if constexpr (D == 3) dx[2] = dx_[2][r / S];
+        f(row_index_[r] + o, row_weight_[r] * s_.w[0][o], static_cast<const V&>(dx));
+      }
+  }
+
   // Returns sum_i w_ip v_i and sets moment = sum_i w_ip v_i (x_i - x_p)^T (APIC's B_p, Jiang et
   // al. 2015, eq. 10), v_i = field[i].
   [[gnu::always_inline]] V gatherAffine(const V* field, M& moment) const {
+    return gatherRows([&](int r) { return field[row_index_[r]].data(); }, moment);
+  }
+
+  // scatterAffine with each node's share into one of n fields: node i of the stencil (numbered
+  // row by row, node o of row r being r S + o) adds to mass[f][i] and momentum[f][i], f =
+  // field(node).
+  template <int n, class Field>
+  [[gnu::always_inline]] void scatterAffineSplit(T m, const V& v, const M& A, T* const (&mass)[n],
+                                                 V* const (&momentum)[n], Field&& field) const {
+    T inner_mass[row_nodes] = {}, along[D - 1][S][row_values] = {};
+    affineParts(m, v, A, inner_mass, along);
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T w = row_weight_[r];
+      T values[row_values];
+#pragma GCC unroll 16
+      for (int j = 0; j < chunks; ++j) {
+        Lanes value = load(along[0][r % S] + 4 * j);
+        if constexpr (D == 3) value += load(along[1][r / S] + 4 * j);
+        store(values + 4 * j, w * value);
+      }
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) {
+        const int f = field(r * S + o), k = row_index_[r] + o;
+        mass[f][k] += w * inner_mass[o];
+#pragma GCC unroll 16
+        for (int c = 0; c < D; ++c) momentum[f][k][c] += values[o * D + c];
+      }
+    }
+  }
+
+  // gatherAffine with each node's v_i from one of n fields: fields[field(node)][i].
+  template <int n, class Field>
+  [[gnu::always_inline]] V gatherAffineSplit(const V* const (&fields)[n], Field&& field,
+                                             M& moment) const {
+    T row_values_of[row_values] = {};
+    return gatherRows(
+        [&](int r) {
+#pragma GCC unroll 16
+          for (int o = 0; o < S; ++o) {
+            const V& v = fields[field(r * S + o)][row_index_[r] + o];
+#pragma GCC unroll 16
+            for (int c = 0; c < D; ++c) row_values_of[o * D + c] = v[c];
+          }
+          return static_cast<const T*>(row_values_of);
+        },
+        moment);
+  }
+
+  // Returns sum_i w_ip v_i and sets moment = sum_i w_ip v_i (x_i - x_p)^T, row r's values
+  // (row_values scalars, node by node) at rowValues(r).
+  template <class RowValues>
+  [[gnu::always_inline]] V gatherRows(RowValues&& rowValues, M& moment) const {
     // Across the rows first, node by node of a row: the sums weighted by the rows' weights, and
     // by those times dx_a for each outer axis a; then along the row.
     Lanes across[D][chunks] = {};  // [0]: sum_r w_r v; [a]: sum_r w_r dx_a v
 #pragma GCC unroll 16
     for (int r = 0; r < rows; ++r) {
-      const T* row = field[row_index_[r]].data();
+      const T* row = rowValues(r);
       const T w = row_weight_[r];
       const T w1 = w * dx_[1][r % S], w2 = D == 3 ? w * dx_[D - 1][r / S] : T(0);
 #pragma GCC unroll 16
@@ -185,6 +296,25 @@ class TensorStencil {
   }
 
  private:
+  // The value node o of row (o1, o2) takes is w_0(o) (v + A.col(0) dx_0(o)) plus w_0(o) times
+  // A.col(1) dx_1(o1) and A.col(2) dx_2(o2): a row's values are along[0][o1] + along[1][o2].
+  [[gnu::always_inline]] void affineParts(T m, const V& v, const M& A, T (&inner_mass)[row_nodes],
+                                          T (&along)[D - 1][S][row_values]) const {
+#pragma GCC unroll 16
+    for (int o = 0; o < S; ++o) {
+      const T w0 = s_.w[0][o];
+      inner_mass[o] = w0 * m;
+#pragma GCC unroll 16
+      for (int c = 0; c < D; ++c) {
+#pragma GCC unroll 16
+        for (int o1 = 0; o1 < S; ++o1)
+          along[0][o1][o * D + c] = w0 * (v[c] + A(c, 0) * dx_[0][o] + A(c, 1) * dx_[1][o1]);
+        if constexpr (D == 3)
+#pragma GCC unroll 16
+          for (int o2 = 0; o2 < S; ++o2) along[1][o2][o * D + c] = w0 * (A(c, 2) * dx_[2][o2]);
+      }
+    }
+  }
   static const Lanes& load(const T* p) {
     return *reinterpret_cast<const Lanes*>(p);
   }

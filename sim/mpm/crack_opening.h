@@ -17,9 +17,11 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "sim/core/grid.h"
+#include "sim/core/lanes.h"
 #include "sim/core/stencil.h"
 #include "sim/mpm/mpm_particles.h"
 #include "sim/mpm/snow_material.h"
@@ -37,29 +39,43 @@ class CrackOpening {
   // friction: the Coulomb coefficient between the faces of a crack, and between grains and the
   // intact snow.
   CrackOpening(int nodes, int colours, int particles, T friction)
-      : partial_(colours), gradient_(particles), near_damage_(particles), friction_(friction) {
+      : partial_(colours),
+        gradient_(particles),
+        near_damage_(particles),
+        grains_near_(particles),
+        takes_sides_(particles),
+        side_bits_(particles),
+        friction_(friction) {
     for (Partial& p : partial_) p.resize(nodes);
     node_.resize(nodes);
   }
 
   // The damage field: each particle's mass and damage d = 1 - strength left into colour c, then
-  // per node their mass-weighted mean.
+  // per node their mass-weighted mean; and the mass of the failed snow (d = 1), the grains'.
   template <class Kernel>
   void scatterDamage(const GridGeometry<D>& grid, const V& x, T mass, T damage, int c) {
     Partial& g = partial_[c];
-    forEachNode<Kernel>(grid, x, [&](int k, T w, const V&) {
-      g.damage_mass[k] += w * mass;
-      g.damage[k] += w * mass * damage;
+    withStencil<Kernel>(grid, x, [&](const auto& t) {
+      if (damage >= 1)
+        t.scatterScalars({mass, mass, mass},
+                         {g.damage_mass.data(), g.damage.data(), g.grains.data()});
+      else if (damage > 0)
+        t.scatterScalars({mass, mass * damage}, {g.damage_mass.data(), g.damage.data()});
+      else
+        t.scatterScalars({mass}, {g.damage_mass.data()});
     });
   }
   void sumDamage(int k) {
-    T mass = 0, damage = 0;
+    T mass = 0, damage = 0, grains = 0;
     for (Partial& g : partial_) {
       mass += g.damage_mass[k];
       damage += g.damage[k];
-      if (g.damage_mass[k] != 0 || g.damage[k] != 0) g.damage_mass[k] = g.damage[k] = 0;
+      grains += g.grains[k];
+      if (g.damage_mass[k] != 0 || g.damage[k] != 0 || g.grains[k] != 0)
+        g.damage_mass[k] = g.damage[k] = g.grains[k] = 0;
     }
     node_.damage[k] = mass > 0 ? damage / mass : T(0);
+    node_.grains[k] = grains;
   }
 
   // Particle p's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), and the
@@ -67,23 +83,22 @@ class CrackOpening {
   // largest over the colours in colour order (ties keep the first): its reference direction.
   template <class Kernel>
   void findGradient(const GridGeometry<D>& grid, const V& x, T inertia_inverse, int p, int c) {
-    V sum = V::Zero();
-    bool near = false;
-    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
-      sum += (w * node_.damage[k]) * dx;
-      near |= node_.damage[k] > 0;
-    });
-    near_damage_[p] = near;
-    const V gradient = inertia_inverse * sum;
-    gradient_[p] = gradient;
-    const T norm = gradient.norm();
-    if (!(norm > 0)) return;
-    Partial& g = partial_[c];
-    forEachNode<Kernel>(grid, x, [&](int k, T w, const V&) {
-      if (w > 0 && norm > g.reference_norm[k]) {
-        g.reference_norm[k] = norm;
-        g.reference[k] = gradient;
-      }
+    withStencil<Kernel>(grid, x, [&](const auto& t) {
+      const bool near = t.largest(node_.damage.data()) > 0;
+      near_damage_[p] = near;
+      grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
+      const V gradient =
+          near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
+      gradient_[p] = gradient;
+      const T norm = gradient.norm();
+      if (!(norm > 0)) return;
+      Partial& g = partial_[c];
+      t.forEachNode([&](int k, T w, const V&) {
+        if (w > 0 && norm > g.reference_norm[k]) {
+          g.reference_norm[k] = norm;
+          g.reference[k] = gradient;
+        }
+      });
     });
   }
   void sumReference(int k) {
@@ -102,10 +117,30 @@ class CrackOpening {
     node_.reference[k] = reference;
   }
 
-  // Whether a node of particle p's stencil holds damage. If none does, p scatters to and gathers
-  // from side 0 of every node, and no grains reach them, so their outward normals are not needed:
-  // the solver's own scatter and gather do for it.
+  // Whether a node of particle p's stencil holds damage.
   bool nearDamage(int p) const { return near_damage_[p]; }
+
+  // Whether particle p scatters to and gathers from the crack's fields: failed snow does, and so
+  // does intact snow that reaches grains (it gives them its outward normals) or takes side 1 at a
+  // node. The rest takes side 0 of every node, and the solver's own scatter and gather do for it.
+  // Decided before the scatter, once the nodes' references are known, with the side of each node
+  // kept for the scatter and the gather.
+  template <class Kernel>
+  bool decideSides(const GridGeometry<D>& grid, const V& x, int p, bool failed) {
+    static_assert(Stencil<D, Kernel, T>::nodes <= 64, "one bit a node");
+    std::uint64_t bits = 0;
+    if (!failed && near_damage_[p]) {
+      const V gradient = gradient_[p];
+      int n = 0;
+      forEachNode<Kernel>(grid, x, [&](int k, T, const V&) {
+        bits |= std::uint64_t(side(gradient, false, k)) << n++;
+      });
+    }
+    side_bits_[p] = bits;
+    takes_sides_[p] = failed || grains_near_[p] || bits != 0;
+    return takes_sides_[p];
+  }
+  bool takesSides(int p) const { return takes_sides_[p]; }
 
   // Which field of node k particle p scatters to and gathers from: the grains once it failed,
   // else the side its damage gradient lies on (side 0 where the node has no reference).
@@ -113,26 +148,27 @@ class CrackOpening {
     return failed ? grains : int(gradient.dot(node_.reference[k]) < 0);
   }
 
-  // MLS's scatter (the solver's scatterParticle) with sides: node k of the stencil takes
-  // w m and w (m v + A (x_i - x_p)) into its side, side 0 being mass0 and momentum0 (the solver's
-  // partial grid of colour c); intact snow also adds w m (x_i - x_p) to its side's outward normal.
+  // MLS's scatter (the solver's scatterParticle) with sides, after decideSides: node k of the
+  // stencil takes w m and w (m v + A (x_i - x_p)) into its side, side 0 being mass0 and momentum0
+  // (the solver's partial grid of colour c); intact snow near grains also adds w m (x_i - x_p) to
+  // its side's outward normal.
   template <class Kernel>
   void scatter(const GridGeometry<D>& grid, const V& x, int p, bool failed, T m, const V& mv,
                const M& A, T* mass0, V* momentum0, int c) {
     Partial& g = partial_[c];
-    const V gradient = gradient_[p];
-    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
-      const int s = side(gradient, failed, k);
-      const T wm = w * m;
-      const V momentum = w * (mv + A * dx);
-      if (s == 0) {
-        mass0[k] += wm;
-        momentum0[k] += momentum;
-      } else {
-        g.mass[s - 1][k] += wm;
-        g.momentum[s - 1][k] += momentum;
-      }
-      if (s != grains) g.normal[s][k] += wm * dx;
+    T* const mass[3] = {mass0, g.mass[0].data(), g.mass[1].data()};
+    V* const momentum[3] = {momentum0, g.momentum[0].data(), g.momentum[1].data()};
+    const std::uint64_t sides = side_bits_[p];
+    const auto field = [&](int n) { return failed ? grains : int(sides >> n & 1); };
+    const bool normals = !failed && grains_near_[p];
+    withStencil<Kernel>(grid, x, [&](const auto& t) {
+      t.scatterAffineSplit(m, mv, A, mass, momentum, field);
+      int n = 0;
+      t.forEachNode([&](int k, T w, const V& dx) {
+        g.touched[k] |= normals ? touched_sides | touched_normals : touched_sides;
+        if (normals) g.normal[field(n)][k] += (w * m) * dx;
+        ++n;
+      });
     });
   }
 
@@ -143,11 +179,23 @@ class CrackOpening {
   // field into a collider.
   template <class Collide>
   void updateNode(int k, T mass0, V& v0, T dt, const V& gravity, Collide&& collide) {
+    // A node that no particle with sides reached has side 0 alone, and its other fields' partial
+    // sums are zero: no particle gathers from them there. Nor do the colours no such particle
+    // reached hold anything there, nor their normals where none near grains did.
+    char any = 0;
+    for (const Partial& g : partial_) any |= g.touched[k];
+    if (!any) {
+      if (mass0 > 0) collide(v0);
+      return;
+    }
     T mass[3] = {mass0, 0, 0};
     V* velocity[3] = {&v0, &node_.velocity[0][k], &node_.velocity[1][k]};
     V normal[2] = {V::Zero(), V::Zero()};
     for (int f = 1; f < 3; ++f) velocity[f]->setZero();
     for (Partial& g : partial_) {
+      const char touched = g.touched[k];
+      if (!touched) continue;
+      g.touched[k] = 0;
       for (int f = 1; f < 3; ++f) {
         T& m = g.mass[f - 1][k];  // the partial arrays hold fields 1 and 2 only
         V& momentum = g.momentum[f - 1][k];
@@ -158,9 +206,10 @@ class CrackOpening {
           momentum.setZero();
         }
       }
+      if (!(touched & touched_normals)) continue;
       for (int side = 0; side < 2; ++side) {
         normal[side] += g.normal[side][k];
-        if (!g.normal[side][k].isZero(0)) g.normal[side][k].setZero();
+        g.normal[side][k].setZero();
       }
     }
     for (int f = 1; f < 3; ++f)
@@ -182,14 +231,12 @@ class CrackOpening {
   // v_i that of particle p's field there (side 0's from v0, the solver's grid).
   template <class Kernel>
   V gather(const GridGeometry<D>& grid, const V& x, int p, bool failed, const V* v0, M& B) const {
-    V v = V::Zero();
-    B.setZero();
-    const V gradient = gradient_[p];
-    forEachNode<Kernel>(grid, x, [&](int k, T w, const V& dx) {
-      const int s = side(gradient, failed, k);
-      const V& v_i = s == 0 ? v0[k] : node_.velocity[s - 1][k];
-      v += w * v_i;
-      B += (w * v_i) * dx.transpose();
+    const V* const velocity[3] = {v0, node_.velocity[0].data(), node_.velocity[1].data()};
+    const std::uint64_t sides = side_bits_[p];
+    V v;
+    withStencil<Kernel>(grid, x, [&](const auto& t) {
+      v = t.gatherAffineSplit(
+          velocity, [&](int n) { return failed ? grains : int(sides >> n & 1); }, B);
     });
     return v;
   }
@@ -209,43 +256,56 @@ class CrackOpening {
     v_a += change;
     v_b -= (m_a / m_b) * change;
   }
+  // f(t) with the stencil at x as rows (TensorStencil).
+  template <class Kernel, class F>
+  static void withStencil(const GridGeometry<D>& grid, const V& x, F&& f) {
+    const Stencil<D, Kernel, T> s(x, T(1 / grid.h));
+    f(TensorStencil<D, Kernel, T>(grid, s, x));
+  }
   // f(k, w, x_i - x_p) for each node k of the stencil at x.
   template <class Kernel, class F>
   static void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
-    const Stencil<D, Kernel, T> s(x, T(1 / grid.h));
-    visitStencil(grid, s, x, [&](const StencilVisit<D, T>& node) {
-      f(node.index, s.weightAt(node.offset), node.dx);
-    });
+    withStencil<Kernel>(grid, x, [&](const auto& t) { t.forEachNode(f); });
   }
+  // Bits of Partial::touched: a particle with sides scattered to the node; one near grains, its
+  // normal too.
+  static constexpr char touched_sides = 1, touched_normals = 2;
   template <class U>
   using ZeroPageVector = std::vector<U, ZeroPageAllocator<U>>;
   // What one colour's rows scatter. Grid-sized, only the nodes near the snow take memory, and
   // each is zeroed by the node pass that sums it.
   struct Partial {
-    ZeroPageVector<T> damage_mass, damage, reference_norm;
+    ZeroPageVector<T> damage_mass, damage, grains, reference_norm;
     ZeroPageVector<V> reference;
     ZeroPageVector<V> normal[2];  // each side's outward normal
     ZeroPageVector<T> mass[2];    // side 1, grains
     ZeroPageVector<V> momentum[2];
+    ZeroPageVector<char> touched;  // what particles with sides scattered here (touched_*)
     void resize(int nodes) {
-      for (auto* a : {&damage_mass, &damage, &reference_norm, &mass[0], &mass[1]}) a->resize(nodes);
+      for (auto* a : {&damage_mass, &damage, &grains, &reference_norm, &mass[0], &mass[1]})
+        a->resize(nodes);
       for (auto* a : {&reference, &normal[0], &normal[1], &momentum[0], &momentum[1]})
         a->resize(nodes);
+      touched.resize(nodes);
     }
   };
   struct Nodes {
-    ZeroPageVector<T> damage;
+    ZeroPageVector<T> damage, grains;  // grains: the failed snow's mass
     ZeroPageVector<V> reference;
     ZeroPageVector<V> velocity[2];  // side 1, grains
     void resize(int nodes) {
       damage.resize(nodes);
+      grains.resize(nodes);
       for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
     }
   };
   std::vector<Partial> partial_;
   Nodes node_;
-  std::vector<V> gradient_;  // per particle, this step's
-  std::vector<char> near_damage_;
+  // Per particle, this step's: the damage gradient; whether damage, grains are near; whether it
+  // takes sides (decideSides).
+  std::vector<V> gradient_;
+  std::vector<char> near_damage_, grains_near_, takes_sides_;
+  std::vector<std::uint64_t> side_bits_;  // bit n: side 1 at node n of the stencil (row by row)
   T friction_;
 };
 
@@ -299,7 +359,8 @@ class OpenCracks {
         material_(material),
         grid_(grid),
         fields_(fields),
-        inertia_inverse_(inertia_inverse) {}
+        inertia_inverse_(inertia_inverse),
+        isa_(vectorIsa()) {}
 
   // The damage field, then each particle's damage gradient and each node's reference direction,
   // which decide the sides of the scatter and the gather. The stages named "crack: ..." tell the
@@ -309,15 +370,19 @@ class OpenCracks {
     using PartialGrid = typename Schedule::PartialGrid;
     schedule.scatter(
         [&](int p, PartialGrid& g) {
-          cracks_.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],
-                                                 1 - strength(p), g.colour);
+          runFor(isa_, [&] {
+            cracks_.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],
+                                                   1 - strength(p), g.colour);
+          });
         },
         "crack: damage");
     schedule.forScatteredNodes("crack: damage field", [&](int k) { cracks_.sumDamage(k); });
     schedule.scatter(
         [&](int p, PartialGrid& g) {
-          cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
-                                                g.colour);
+          runFor(isa_, [&] {
+            cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
+                                                  g.colour);
+          });
         },
         "crack: gradients");
     schedule.forScatteredNodes("crack: sides", [&](int k) { cracks_.sumReference(k); });
@@ -326,12 +391,18 @@ class OpenCracks {
   // 1 + 3: into each node's side.
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T dt, Plain&& plain) const {
-    if (!cracks_.nearDamage(p)) return plain(p, g);
-    const T m = particles_.mass[p];
-    const M A = mlsAffineMomentum(particles_, p, dt, inertia_inverse_);
-    cracks_.template scatter<Kernel>(grid_, particles_.x[p], p, failed(p), m,
-                                     V(m * particles_.v[p]), A, g.mass.data(), g.momentum.data(),
-                                     g.colour);
+    bool sides = false;
+    runFor(isa_, [&] {
+      sides = cracks_.template decideSides<Kernel>(grid_, particles_.x[p], p, failed(p));
+    });
+    if (!sides) return plain(p, g);
+    runFor(isa_, [&] {
+      const T m = particles_.mass[p];
+      const M A = mlsAffineMomentum(particles_, p, dt, inertia_inverse_);
+      cracks_.template scatter<Kernel>(grid_, particles_.x[p], p, failed(p), m,
+                                       V(m * particles_.v[p]), A, g.mass.data(), g.momentum.data(),
+                                       g.colour);
+    });
   }
   // 4, 5 after side 0's velocity and gravity: the other fields', the fields' contact where they
   // approach, then the collisions.
@@ -342,11 +413,13 @@ class OpenCracks {
   // 8: from each node's side.
   template <class Plain>
   void gather(int p, Plain&& plain) {
-    if (!cracks_.nearDamage(p)) return plain(p);
-    M B;
-    particles_.v[p] = cracks_.template gather<Kernel>(grid_, particles_.x[p], p, failed(p),
-                                                      fields_.velocity.data(), B);
-    particles_.C[p] = inertia_inverse_ * B;
+    if (!cracks_.takesSides(p)) return plain(p);
+    runFor(isa_, [&] {
+      M B;
+      particles_.v[p] = cracks_.template gather<Kernel>(grid_, particles_.x[p], p, failed(p),
+                                                        fields_.velocity.data(), B);
+      particles_.C[p] = inertia_inverse_ * B;
+    });
   }
 
  private:
@@ -359,6 +432,7 @@ class OpenCracks {
   const GridGeometry<D>& grid_;
   const GridFields<D, T>& fields_;  // side 0 of every node, the solver's grid
   T inertia_inverse_;
+  VectorIsa isa_;  // the build the per-particle passes run in (runFor)
 };
 
 }  // namespace snowsim

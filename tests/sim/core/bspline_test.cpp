@@ -2,6 +2,7 @@
 // that match finite differences.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -107,6 +108,60 @@ TEST(BSpline, StencilPartitionOfUnity3DCubic) {
   checkStencil<3, CubicBSpline>();
 }
 
+// The crack opening's transfers of TensorStencil against the node-by-node definitions, node n
+// being the n-th visited (axis 0 fastest, as rows): the nodes with their weights; a scatter of
+// scalars; the moment and the largest of a scalar field (the first components of field); the
+// affine scatter and gather split between two fields, node n in field n % 2.
+template <int D, class Kernel>
+void checkTensorStencilByField(const GridGeometry<D>& grid, const Stencil<D, Kernel>& s,
+                               const Vec<D>& x, const TensorStencil<D, Kernel>& tensor,
+                               const std::vector<Vec<D>>& field, Real m, const Vec<D>& v,
+                               const Mat<D>& A) {
+  const std::vector<StencilVisit<D>> nodes = visitedNodes(grid, s, x);
+  std::vector<Real> scalar(grid.nodeCount()), first(grid.nodeCount(), 0), second = first;
+  for (int k = 0; k < grid.nodeCount(); ++k) scalar[k] = field[k][0];
+  std::vector<Real> mass[2] = {first, first};
+  std::vector<Vec<D>> momentum[2] = {std::vector<Vec<D>>(grid.nodeCount(), Vec<D>::Zero()),
+                                     std::vector<Vec<D>>(grid.nodeCount(), Vec<D>::Zero())};
+  const std::vector<Vec<D>> other(grid.nodeCount(), Vec<D>::Constant(2));
+  int n = 0;
+  tensor.forEachNode([&](int k, Real w, const Vec<D>& dx) {
+    EXPECT_EQ(k, nodes[n].index);
+    EXPECT_NEAR(w, s.weightAt(nodes[n].offset), 1e-15);
+    EXPECT_LT((dx - nodes[n].dx).norm(), 1e-15);
+    ++n;
+  });
+  EXPECT_EQ(n, s.nodes);
+  tensor.scatterScalars({m, 2 * m}, {first.data(), second.data()});
+  const auto split = [](int node) { return node % 2; };
+  tensor.scatterAffineSplit(m, v, A, {mass[0].data(), mass[1].data()},
+                            {momentum[0].data(), momentum[1].data()}, split);
+  Mat<D> moment;
+  const Vec<D> gathered = tensor.gatherAffineSplit({field.data(), other.data()}, split, moment);
+  Vec<D> scalar_moment = Vec<D>::Zero(), sum = Vec<D>::Zero();
+  Mat<D> expected_moment = Mat<D>::Zero();
+  Real largest = scalar[nodes[0].index];
+  for (int i = 0; i < s.nodes; ++i) {
+    const int k = nodes[i].index, f = i % 2;
+    const Real w = s.weightAt(nodes[i].offset);
+    EXPECT_NEAR(first[k], w * m, 1e-15);
+    EXPECT_NEAR(second[k], 2 * w * m, 1e-15);
+    EXPECT_NEAR(mass[f][k], w * m, 1e-15);
+    EXPECT_EQ(mass[1 - f][k], 0);
+    EXPECT_LT((momentum[f][k] - w * (v + A * nodes[i].dx)).norm(), 1e-14);
+    EXPECT_EQ(momentum[1 - f][k], Vec<D>::Zero());
+    scalar_moment += w * scalar[k] * nodes[i].dx;
+    largest = std::max(largest, scalar[k]);
+    const Vec<D>& v_i = f == 0 ? field[k] : other[k];
+    sum += w * v_i;
+    expected_moment += w * v_i * nodes[i].dx.transpose();
+  }
+  EXPECT_LT((tensor.gatherScalarMoment(scalar.data()) - scalar_moment).norm(), 1e-16);
+  EXPECT_EQ(tensor.largest(scalar.data()), largest);
+  EXPECT_LT((gathered - sum).norm(), 1e-14);
+  EXPECT_LT((moment - expected_moment).norm(), 1e-16);
+}
+
 // The tensor-product scatter and gather (TensorStencil) against the node-by-node definitions:
 // scatter adds w_ip m to each node's mass and w_ip (v + A (x_i - x_p)) to its momentum, and to no
 // other node; gather gives sum_i w_ip v_i and sum_i w_ip v_i (x_i - x_p)^T, for a random grid
@@ -158,6 +213,7 @@ void checkTensorStencil() {
     const Vec<D> gathered_sum = tensor.gatherAffine(field.data(), gathered_moment);
     EXPECT_LT((gathered_sum - sum).norm(), 1e-14);
     EXPECT_LT((gathered_moment - moment).norm(), 1e-16);  // moments scale with h ~ 1e-2
+    checkTensorStencilByField(grid, s, x, tensor, field, m, v, A);
   }
 }
 

@@ -89,6 +89,7 @@ struct TwoSides {
   }
   // b's 2 kg at velocity v, no affine velocity, scattered into its sides.
   void scatterB(const V& v, bool failed = false) {
+    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xb, b, failed));
     cracks.scatter<Kernel>(kGrid, xb, b, failed, 2, V(2 * v), M::Zero(), mass0.data(),
                            momentum0.data(), 0);
   }
@@ -161,6 +162,22 @@ TEST(CrackOpeningParts, EachNodesReferenceIsTheLargestGradientThatReachesIt) {
     EXPECT_EQ(sideOfMinusX(s.cracks, node(9, 5)), 0);
     EXPECT_EQ(s.cracks.side(V(1, 0), true, node(4, 5)), Cracks::grains);
     EXPECT_EQ(s.cracks.side(V(1, 0), true, node(9, 5)), Cracks::grains);
+  }
+}
+
+// TwoSides' a and b about a spot of damage 1/2 (no grains): a takes side 0 at every node and keeps
+// the plain transfers, b takes side 1 at column 5; snow far from damage keeps them unless it
+// failed. Damage 1 (failed snow, grains) takes a off them too: it gives the grains its normals.
+TEST(CrackOpeningParts, OnlySnowTakingSide1OrNearGrainsLeavesThePlainTransfers) {
+  const V xa(3.75, 5), xb(6, 5), far(5, 1.5);
+  for (const Real damage : {0.5, 1.0}) {
+    Cracks cracks(kGrid.nodeCount(), kColours, 3, 0);
+    findSides(cracks, {{V(5, 5), 1, damage, 0}}, {{xa, 2}, {xb, 0}, {far, 1}});
+    EXPECT_EQ(cracks.decideSides<Kernel>(kGrid, xa, 0, false), damage == 1) << damage;
+    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xb, 1, false)) << damage;
+    EXPECT_FALSE(cracks.decideSides<Kernel>(kGrid, far, 2, false)) << damage;
+    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, far, 2, true)) << "failed snow";
+    EXPECT_TRUE(cracks.takesSides(2));
   }
 }
 
@@ -239,12 +256,15 @@ TEST(CrackOpeningParts, SeparatingSidesKeepTheirVelocitiesAndEachGathersItsOwn) 
 }
 
 TEST(CrackOpeningParts, GrainsMeetASideOnlyMovingIntoItAlongItsOutwardNormal) {
-  // Intact snow at (4, 5) and failed snow at (6, 5), no damage field: both reach node (5, 5), the
-  // intact snow's side 0 there with outward normal +x (from the snow to the node).
+  // Intact snow at (4, 5) and failed snow at (6, 5), whose damage 1 alone makes the damage field:
+  // both reach node (5, 5), the intact snow's side 0 there with outward normal +x (from the snow
+  // to the node).
   for (const Real grain_speed : {-1.0, 1.0}) {
     Cracks cracks(kGrid.nodeCount(), kColours, 2, 0);
     const V xs(4, 5), xg(6, 5), vg(grain_speed, 0);
-    findSides(cracks, {}, {{xs, 0}, {xg, 1}});
+    findSides(cracks, {{xg, 1, 1, 1}}, {{xs, 0}, {xg, 1}});
+    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xs, 0, false)) << "snow near grains";
+    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xg, 1, true));
     std::vector<Real> mass0(kGrid.nodeCount(), 0);
     std::vector<V> momentum0(kGrid.nodeCount(), V::Zero());
     cracks.scatter<Kernel>(kGrid, xs, 0, false, 1, V::Zero(), M::Zero(), mass0.data(),

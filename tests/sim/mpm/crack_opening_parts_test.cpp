@@ -139,7 +139,7 @@ TEST(CrackOpeningParts, NodeDamageIsTheMassWeightedMeanOverEveryColour) {
 
 TEST(CrackOpeningParts, EachNodesReferenceIsTheLargestGradientThatReachesIt) {
   // a and b in one colour (b found after a), a in the first colour, b in the first.
-  for (const auto [colour_a, colour_b] : {std::pair(0, 0), std::pair(0, 2), std::pair(2, 0)}) {
+  for (const auto& [colour_a, colour_b] : {std::pair(0, 0), std::pair(0, 2), std::pair(2, 0)}) {
     const TwoSides s(0.1, colour_a, colour_b);
     SCOPED_TRACE(testing::Message() << "colours " << colour_a << " " << colour_b);
     EXPECT_TRUE(s.cracks.nearDamage(TwoSides::a));

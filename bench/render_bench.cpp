@@ -1,6 +1,8 @@
 // Rendering speed: milliseconds per 1920x1080 frame of 3D snow (perspective) for 10k, 250k and 1M
 // spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a 2D
-// frame (orthographic, the report's look) of 1M; and per frame for each encoder (PNG, MP4).
+// frame (orthographic, the report's look) of 1M; the surface look of a flagship-sized ball (268k
+// particles at cell 5 mm): building its surface, then drawing it; and per frame for each encoder
+// (PNG, MP4).
 // Medians of the wall time, and the process's CPU time a frame (all of llvmpipe's threads; on a
 // shared machine it tells the work apart from the waiting). Usage:
 //   render_bench [repetitions=5] [frames_directory]
@@ -12,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 
 #include <sys/resource.h>
 #include <random>
@@ -42,6 +45,32 @@ Snapshot packedSnow(int dimension, int n) {
     s.velocity.push_back({0, -u(random), 0});
     s.density.push_back(400 * u(random));
   }
+  return s;
+}
+
+// A ball of radius 0.1 m on a lattice of 2.5 mm (268,096 particles) in the flagship's grid of
+// 120x80x80 cells of 5 mm, resting on the ground.
+Snapshot flagshipBall() {
+  Snapshot s;
+  s.grid.dimension = 3;
+  s.grid.cells = {120, 80, 80};
+  s.grid.cell_size = 0.005;
+  s.grid.particle_spacing = 0.0025;
+  const double radius = 0.1, spacing = 0.0025, centre[3] = {0.3, 0.1, 0.2};
+  const int n = static_cast<int>(2 * radius / spacing);
+  std::mt19937 random(1);
+  std::uniform_real_distribution<float> u(0, 1);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const double x[3] = {(i + 0.5) * spacing - radius, (j + 0.5) * spacing - radius,
+                             (k + 0.5) * spacing - radius};
+        if (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] > radius * radius) continue;
+        s.position.push_back(
+            {float(centre[0] + x[0]), float(centre[1] + x[1]), float(centre[2] + x[2])});
+        s.velocity.push_back({0, -u(random), 0});
+        s.density.push_back(400);
+      }
   return s;
 }
 
@@ -93,6 +122,29 @@ int main(int argc, char** argv) {
   }
   std::printf("2D  1000000 spheres (sprites)    %s\n",
               timeFrames(plain, packedSnow(2, 1'000'000), repetitions).c_str());
+
+  {
+    // The surface is built once per frame, then drawn: the two parts apart, then a whole frame.
+    Snapshot ball = flagshipBall();
+    RenderSettings settings = fullHd(true, true);
+    settings.look = Look::Surface;
+    std::shared_ptr<const SnowSurface> surface;
+    const double cpu0 = cpuSeconds();
+    const double build = medianMs(repetitions, [&] {
+      surface = std::make_shared<const SnowSurface>(buildSnowSurface(ball, settings.surface));
+    });
+    const double build_cpu = 1e3 * (cpuSeconds() - cpu0) / repetitions;
+    ball.surface = surface;
+    Renderer renderer(settings);
+    std::printf("surface of %d particles: %zu triangles, %zu loose grains\n", ball.size(),
+                surface->triangles.size(), surface->loose.size());
+    std::printf("  build the surface     %6.0f (%5.0f)\n", build, build_cpu);
+    std::printf("  draw it (both)        %s\n", timeFrames(renderer, ball, repetitions).c_str());
+    ball.surface = nullptr;
+    std::printf("  build and draw        %s\n", timeFrames(renderer, ball, repetitions).c_str());
+    if (frames_directory)
+      writePng(std::string(frames_directory) + "/surface_ball.png", renderer.render(ball));
+  }
 
   const Image frame = plain.render(packedSnow(2, 10'000));
   const auto dir = std::filesystem::temp_directory_path();

@@ -4,7 +4,9 @@
 // right), drawn deferred: a G-buffer of the spheres, ground and colliders, then one lighting pass
 // with a key light and its shadow map, a sky fill and screen-space ambient occlusion. Spheres a
 // few pixels wide are point sprites instead of ray-cast impostors; particles buried in packed snow
-// are left out of the passes that cannot see them (docs/rendering.md).
+// are left out of the passes that cannot see them (docs/rendering.md). The surface look draws the
+// snow's surface mesh (sim/geometry/snow_surface.h) in place of the spheres, and its loose grains
+// as spheres.
 #pragma once
 
 #include <array>
@@ -15,6 +17,7 @@
 #include "render/camera.h"
 #include "render/image.h"
 #include "sim/core/snapshot.h"
+#include "sim/geometry/snow_surface.h"
 
 namespace snowsim {
 
@@ -25,10 +28,11 @@ enum class ColorBy { White, Density, Speed, Plastic };
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
 ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
 
-// Studio: a dark background (the report's). Figure: white, like a paper's figure.
-enum class Look { Studio, Figure };
+// Studio: a dark background (the report's). Figure: white, like a paper's figure. Surface: the
+// studio's background and light, the 3D snow drawn as its surface (2D frames: as studio).
+enum class Look { Studio, Figure, Surface };
 
-// Parses "studio", "figure"; throws InputError listing the allowed names.
+// Parses "studio", "figure", "surface"; throws InputError listing the allowed names.
 Look parseLook(const std::string& name, const std::string& where = "--look");
 
 // The values the colour map spans: low is its first colour, high its last.
@@ -52,7 +56,11 @@ struct RenderSettings {
   // Fixed for a run so that colours mean the same in every frame; none: render/colour.h's
   // default for the attribute.
   std::optional<ColourRange> color_range;
+  SurfaceSettings surface;  // the surface look's, for frames that carry no surface
 };
+
+// "studio", "figure" or "surface": the name parseLook reads.
+std::string lookName(Look look);
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.
 void validate(const RenderSettings& settings);

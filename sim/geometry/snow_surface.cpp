@@ -48,7 +48,7 @@ void validate(const SurfaceSettings& s, const std::string& where) {
         "above -8 and below the radius (particle spacings)");
   check(s.smoothing >= 0 && s.smoothing <= 50, "smoothing", s.smoothing, "0 to 50 iterations");
   check(s.adaptivity >= 0 && s.adaptivity <= 1, "adaptivity", s.adaptivity, "0 to 1");
-  check(s.min_neighbours >= 0 && s.min_neighbours <= 1000, "min_neighbours", s.min_neighbours,
+  check(s.min_neighbours >= 0 && s.min_neighbours <= 1000, "min-neighbours", s.min_neighbours,
         "0 to 1000 particles");
   check(s.threads >= 0 && s.threads <= 1024, "threads", s.threads, "0 (all) to 1024");
 }

@@ -35,7 +35,8 @@ struct SurfaceSettings {
   int threads = 0;  // OpenVDB's (TBB's) threads; 0: all
 };
 
-// Checks the settings; throws InputError naming the field (`where` + field) and what is allowed.
+// Checks the settings; throws InputError naming the field (`where` + voxel, radius, erode,
+// smoothing, adaptivity, min-neighbours, threads) and what is allowed.
 void validate(const SurfaceSettings& settings, const std::string& where);
 
 // The narrow band of the signed distance field, as plain data: voxel (i, j, k) is at

@@ -21,12 +21,14 @@ SurfaceFilter parseSurfaceFilter(const std::string& name, const std::string& whe
 std::string surfaceFilterName(SurfaceFilter filter);
 
 struct SurfaceSettings {
-  double voxel = 0.5;   // voxel side, a fraction of the cell size
+  // Voxel side, a fraction of the cell size; smaller where a particle's sphere would be narrower
+  // than 1.5 voxels (voxelSize).
+  double voxel = 0.5;
   double radius = 1.5;  // each particle's sphere, in particle spacings
   // How far the smoothed surface is moved in, in particle spacings (negative: out). The default
   // takes back the spheres' reach beyond the particles' own rest volume (radius - 0.5) less what
   // the smoothing already took, so that a ball of snow keeps its volume.
-  double erode = 0.6;
+  double erode = 0.3;
   SurfaceFilter filter = SurfaceFilter::Gaussian;
   int smoothing = 2;        // filter iterations
   double adaptivity = 0.0;  // volume to mesh: 0 uniform triangles, up to 1 fewer and larger
@@ -58,6 +60,9 @@ struct SnowSurface {
       0;  // of them, particles the smoothing and erosion left farther outside than half a spacing
   SurfaceField field;
 };
+
+// The voxel side (m) the surface of this snapshot is built on.
+double voxelSize(const Snapshot& snapshot, const SurfaceSettings& settings);
 
 // The surface of a 3D snapshot. The same snapshot and settings give the same surface, bit for
 // bit, on any number of threads. Throws InputError for a 2D snapshot.

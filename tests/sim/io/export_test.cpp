@@ -185,6 +185,49 @@ TEST(Export, SurfaceMeshAndLevelSetSitOnTheSnow) {
   }
 }
 
+// The loader script in Debian's Blender: the surface meshes as one object, each frame's vertices
+// and triangles those of its file.
+TEST(Export, BlenderLoadsTheSurfaceMeshesAsOneAnimatedObject) {
+  if (runCommand("command -v blender").code != 0)
+    GTEST_SKIP() << "blender is not installed (apt-get install blender; scripts/setup.sh does)";
+  const fs::path out = freshDir("export_blender_surface");
+  runSmash(out, 0.04, "--surface");
+  const fs::path report = out.parent_path() / "blender_surface.json";
+  const std::string check =
+      "import bpy, json, numpy as np\n"
+      "o = bpy.data.objects['snowsim_surface']\n"
+      "frames = {}\n"
+      "for f in (1, 2):\n"
+      "    bpy.context.scene.frame_set(f)\n"
+      "    co = np.zeros(len(o.data.vertices) * 3, dtype=np.float32)\n"
+      "    o.data.vertices.foreach_get('co', co)\n"
+      "    co = co.reshape(-1, 3)\n"
+      "    frames[str(f)] = {'vertices': len(o.data.vertices), 'faces': len(o.data.polygons),\n"
+      "                      'low': co.min(0).tolist(), 'high': co.max(0).tolist()}\n"
+      "json.dump(frames, open('" +
+      report.string() + "', 'w'))\n";
+  const fs::path script = out.parent_path() / "blender_surface_check.py";
+  std::ofstream(script) << check;
+  const Result r = runCommand("blender -b --factory-startup --python-exit-code 1 --python " +
+                              std::string(SNOWSIM_SOURCE_DIR) + "/scripts/blender_load_run.py " +
+                              "--python " + script.string() + " -- " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto blender = nlohmann::json::parse(std::ifstream(report));
+  for (int frame : {1, 2}) {
+    const SurfaceFile m = readSurfaceFile(out / ("surface_0000" + std::to_string(frame) + ".ply"));
+    const nlohmann::json& seen = blender[std::to_string(frame)];
+    EXPECT_EQ(seen["vertices"].get<size_t>(), m.vertices.size()) << "frame " << frame;
+    EXPECT_EQ(seen["faces"].get<size_t>(), m.faces.size()) << "frame " << frame;
+    for (int a = 0; a < 3; ++a) {
+      float low = 1e9f, high = -1e9f;
+      for (const auto& v : m.vertices) low = std::min(low, v[a]), high = std::max(high, v[a]);
+      EXPECT_FLOAT_EQ(seen["low"][a].get<float>(), low) << "frame " << frame << " axis " << a;
+      EXPECT_FLOAT_EQ(seen["high"][a].get<float>(), high) << "frame " << frame << " axis " << a;
+    }
+  }
+  EXPECT_NE(blender["1"]["high"][0], blender["2"]["high"][0]) << "one frame shown throughout";
+}
+
 TEST(Export, SurfaceIsRefusedFor2DRuns) {
   const fs::path out = freshDir("export_surface_2d");
   const Result r = runSnowsim("run " + std::string(SNOWSIM_SOURCE_DIR) +

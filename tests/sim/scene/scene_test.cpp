@@ -326,7 +326,7 @@ TEST(Scene, RenderLookBackgroundShadowsAndOcclusion) {
   EXPECT_FALSE(loadScene(writeTemp(kMinimal)).render.look.has_value());
 
   EXPECT_NE(errorOf(kMinimal, {"render.look=noir"})
-                .find(R"(render.look: "noir" is not allowed; allowed: "studio", "figure")"),
+                .find(R"(render.look: "noir" is not allowed; allowed: "studio", "figure", "surface")"),
             std::string::npos);
   EXPECT_NE(errorOf(kMinimal, {"render.background=[1, 2, 0]"})
                 .find("render.background: each of red, green, blue must be in [0, 1]"),

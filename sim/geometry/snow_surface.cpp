@@ -166,15 +166,16 @@ void buildInArena(const Snapshot& s, const SurfaceSettings& settings, SnowSurfac
     if (settings.erode != 0) filter.offset(static_cast<float>(settings.erode * spacing));
   }
 
-  // Grains the smoothing and erosion left outside the surface: farther out than half a spacing,
-  // so that none of their rest volume is inside.
+  // Grains the smoothing and erosion left outside the surface: farther out than their sphere's
+  // radius, so that the sphere the surface was built from no longer reaches it. Nearer, the
+  // surface stands for them (a coarse ball's lattice corners stick out of it by about a spacing).
   {
     const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>
         phi(grid->getConstAccessor(), grid->transform());
     std::vector<std::uint32_t> outside;
     for (std::uint32_t p : kept) {
       const auto& x = s.position[p];
-      if (phi.wsSample(openvdb::Vec3R(x[0], x[1], x[2])) > 0.5 * spacing) outside.push_back(p);
+      if (phi.wsSample(openvdb::Vec3R(x[0], x[1], x[2])) > radius) outside.push_back(p);
     }
     surface.smoothed_away = static_cast<int>(outside.size());
     std::vector<std::uint32_t> loose(surface.loose.size() + outside.size());

@@ -55,9 +55,10 @@ struct SnowSurface {
   std::vector<std::array<float, 3>> normals;            // unit, outward, one per vertex
   std::vector<std::array<std::uint32_t, 3>> triangles;  // counter-clockwise seen from outside
   std::vector<std::uint32_t> loose;  // particle indices not in the surface, ascending
-  int isolated = 0;                  // of them, particles too few neighbours had to be rasterised
-  int smoothed_away =
-      0;  // of them, particles the smoothing and erosion left farther outside than half a spacing
+  int isolated = 0;                  // of them, particles with too few neighbours to be rasterised
+  // Of them, particles the smoothed, eroded surface leaves farther outside than their sphere's
+  // radius.
+  int smoothed_away = 0;
   SurfaceField field;
 };
 

@@ -45,8 +45,10 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
   command.add_option("--camera-preset", camera_preset,
                      "3D camera framing the snow: front, side, three_quarter (default) or top");
   command.add_option("--look", look,
-                     "studio (dark background, default), figure (white, like a paper's figure) "
-                     "or volume (3D: the snow as a lit density volume)");
+                     "studio (dark background, default), figure (white, like a paper's figure), "
+                     "surface (3D: the snow's surface in "
+                     "place of its particles, loose grains as spheres) or volume (3D: the snow as "
+                     "a lit density volume); docs/rendering.md");
   command.add_option("--background", background, "Background colour r,g,b, each 0 to 1")
       ->delimiter(',')
       ->expected(3);
@@ -58,6 +60,29 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
                   "the scene's render.color_range, else a physical range; docs/rendering.md)")
       ->delimiter(',')
       ->expected(2);
+  const SurfaceSettings d;
+  auto fixed = [](double x) { return numberText(x); };
+  command.add_option(
+      "--surface-voxel", surface.voxel,
+      "Surface: voxel side, a fraction of the cell (default " + fixed(d.voxel) + ")");
+  command.add_option("--surface-radius", surface.radius,
+                     "Surface: each particle's sphere radius, in particle spacings (default " +
+                         fixed(d.radius) + ")");
+  command.add_option("--surface-erode", surface.erode,
+                     "Surface: how far the smoothed surface moves in, in particle spacings "
+                     "(negative: out; default " +
+                         fixed(d.erode) + ")");
+  command.add_option("--surface-filter", surface_filter,
+                     "Surface: smoothing filter, gaussian (default), mean-curvature or none");
+  command.add_option("--surface-smoothing", surface.smoothing,
+                     "Surface: filter iterations (default " + std::to_string(d.smoothing) + ")");
+  command.add_option("--surface-adaptivity", surface.adaptivity,
+                     "Surface: mesh adaptivity, 0 (uniform, default) to 1 (fewer, larger "
+                     "triangles)");
+  command.add_option("--surface-min-neighbours", surface.min_neighbours,
+                     "Surface: particles with fewer others in the 3x3x3 cells around are loose "
+                     "grains, drawn as spheres (default " +
+                         std::to_string(d.min_neighbours) + ")");
 }
 
 bool RenderOptions::given(const char* name) const {
@@ -90,6 +115,14 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (!shadows) s.shadows = false;
   if (!occlusion) s.occlusion = false;
   if (givesColourRange()) s.color_range = ColourRange{color_range[0], color_range[1]};
+  if (given("--surface-voxel")) s.surface.voxel = surface.voxel;
+  if (given("--surface-radius")) s.surface.radius = surface.radius;
+  if (given("--surface-erode")) s.surface.erode = surface.erode;
+  if (given("--surface-filter"))
+    s.surface.filter = parseSurfaceFilter(surface_filter, "--surface-filter");
+  if (given("--surface-smoothing")) s.surface.smoothing = surface.smoothing;
+  if (given("--surface-adaptivity")) s.surface.adaptivity = surface.adaptivity;
+  if (given("--surface-min-neighbours")) s.surface.min_neighbours = surface.min_neighbours;
   validate(s);
   return s;
 }
@@ -147,6 +180,14 @@ nlohmann::json drawingJson(const RenderSettings& settings) {
                       {"grid", settings.show_grid},      {"density_cells", settings.density_cells},
                       {"shadows", settings.shadows},     {"occlusion", settings.occlusion}};
   if (settings.background) j["background"] = *settings.background;
+  const SurfaceSettings& surface = settings.surface;
+  j["surface"] = {{"voxel", surface.voxel},
+                  {"radius", surface.radius},
+                  {"erode", surface.erode},
+                  {"filter", surfaceFilterName(surface.filter)},
+                  {"smoothing", surface.smoothing},
+                  {"adaptivity", surface.adaptivity},
+                  {"min_neighbours", surface.min_neighbours}};
   return j;
 }
 
@@ -159,6 +200,19 @@ void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSe
   settings.occlusion = json.at("occlusion").get<bool>();
   if (json.contains("background"))
     settings.background = json.at("background").get<std::array<double, 3>>();
+  if (json.contains("surface")) {
+    const nlohmann::json& j = json.at("surface");
+    SurfaceSettings& surface = settings.surface;
+    surface.voxel = j.at("voxel").get<double>();
+    surface.radius = j.at("radius").get<double>();
+    surface.erode = j.at("erode").get<double>();
+    surface.filter =
+        parseSurfaceFilter(j.at("filter").get<std::string>(), where + ": surface.filter");
+    surface.smoothing = j.at("smoothing").get<int>();
+    surface.adaptivity = j.at("adaptivity").get<double>();
+    surface.min_neighbours = j.at("min_neighbours").get<int>();
+    validate(surface, where + ": surface.");
+  }
 }
 
 VideoSettings RenderOptions::videoSettings(double scene_fps, int image_width,

@@ -33,6 +33,8 @@ struct RenderOptions {
   bool occlusion = true;
   std::string camera_preset;
   std::vector<double> color_range;
+  SurfaceSettings surface;  // --surface-*: how the surface look and --surface build the surface
+  std::string surface_filter = "gaussian";
   bool png = true;
   bool mp4 = true;
   VideoSettings video;
@@ -67,7 +69,8 @@ struct RenderOptions {
 nlohmann::json cameraJson(const Camera& camera);
 Camera cameraFromJson(const nlohmann::json& json);
 // What is drawn beside the snow and how, as run.json records it ("drawing": look, background,
-// sphere radius, grid, density cells, shadows, occlusion), and back onto settings. Reading throws
+// sphere radius, grid, density cells, shadows, occlusion, the surface's settings), and back onto
+// settings (a run.json without the surface's keeps the defaults). Reading throws
 // nlohmann's exceptions for a missing or mistyped field and InputError (naming `where`) for a bad
 // value.
 nlohmann::json drawingJson(const RenderSettings& settings);

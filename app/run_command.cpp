@@ -30,6 +30,7 @@
 #include "sim/core/errors.h"
 #include "sim/distributed/rank_exchange.h"
 #include "sim/geometry/level_set.h"
+#include "sim/geometry/snow_surface.h"
 #include "sim/io/checkpoint.h"
 #include "sim/io/files.h"
 #include "sim/io/ply.h"
@@ -57,6 +58,7 @@ struct RunOptions {
   std::string precision;       // double | float: mpm.precision; empty: the scene's
   bool ply = true;
   bool vdb = false;        // --vdb: frame_NNNNN.vdb density and velocity volumes (3D)
+  bool surface = false;    // --surface: surface_NNNNN.ply meshes, and the VDB's surface grid (3D)
   bool z_up = false;       // --z-up: PLY and VDB turned to z up, (x, y, z) -> (x, -z, y)
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
@@ -67,33 +69,37 @@ struct RunOptions {
   std::vector<std::string> args;  // the command line after `run`, which resume parses again
 };
 
-// dir/frame_NNNNN.extension.
-std::string framePath(const std::string& dir, int frame, const std::string& extension) {
-  char name[32];
-  std::snprintf(name, sizeof name, "/frame_%05d.", frame);
+// dir/PREFIXNNNNN.extension, PREFIX frame_ unless said.
+std::string framePath(const std::string& dir, int frame, const std::string& extension,
+                      const char* prefix = "frame_") {
+  char name[48];
+  std::snprintf(name, sizeof name, "/%s%05d.", prefix, frame);
   return dir + name + extension;
 }
 
-// Writes frame_NNNNN.EXT per frame with a writer of (path, snapshot, up axis): PLY or VDB.
+// Writes PREFIXNNNNN.EXT per frame with a writer of (path, snapshot, up axis): PLY, VDB or the
+// surface's PLY.
 class FileSink final : public FrameSink {
  public:
   using Writer = void (*)(const std::string&, const Snapshot&, UpAxis);
   // `stage`: a string literal (StageClock keeps the pointer), e.g. "write PLY".
   FileSink(std::string dir, std::string extension, Writer writer, UpAxis up, std::string_view stage,
-           StageClock& clock)
+           StageClock& clock, const char* prefix = "frame_")
       : dir_(std::move(dir)),
         extension_(std::move(extension)),
+        prefix_(prefix),
         stage_(stage),
         writer_(writer),
         up_(up),
         clock_(clock) {}
   void write(const Snapshot& s) override {
     const StageClock::Scope time(&clock_, stage_);
-    writer_(framePath(dir_, s.frame, extension_), s, up_);
+    writer_(framePath(dir_, s.frame, extension_, prefix_), s, up_);
   }
 
  private:
   std::string dir_, extension_;
+  const char* prefix_;
   std::string_view stage_;
   Writer writer_;
   UpAxis up_;
@@ -368,6 +374,8 @@ struct RunPlan {
   RenderSettings render;
   VideoSettings video;
   UpAxis up = UpAxis::Y;
+  bool build_surface = false;  // each frame's surface, for --surface and the surface look
+  SurfaceSettings surface;     // the render settings' with the run's threads
   std::string video_name;      // SCENE_NAME.mp4
   std::string resume_command;  // what continues the run when it stops short
   int first_frame = 0;         // the first frame this session writes
@@ -396,6 +404,13 @@ RunPlan validatedRun(const RunOptions& options, const SavedRun* saved, RankExcha
   plan.video = options.render.videoSettings(scene.fps, plan.render.width, plan.render.height);
   if (options.vdb && scene.dimension != 3)
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
+  if (options.surface && scene.dimension != 3)
+    throw InputError("--surface: " + scene.file + " runs in 2D; surfaces are built for 3D runs");
+  plan.surface = plan.render.surface;
+  plan.surface.threads = options.threads;
+  plan.build_surface =
+      scene.dimension == 3 && (options.surface || (plan.render.look == Look::Surface &&
+                                                   (options.render.png || options.render.mp4)));
   plan.up = options.z_up ? UpAxis::Z : UpAxis::Y;
   warnOfCoarseMeshColliders(scene);
   warnOfCollidersOutsideTheGrid(scene);
@@ -466,6 +481,13 @@ FrameSinks frameSinks(const RunOptions& options, const RunPlan& plan, StageClock
   if (options.vdb)
     sinks.push_back(
         std::make_unique<FileSink>(options.out, "vdb", writeVdb, plan.up, "write VDB", clock));
+  if (options.surface) {
+    auto write = [](const std::string& path, const Snapshot& s, UpAxis up) {
+      writeSurfacePly(path, *s.surface, s, up);
+    };
+    sinks.push_back(std::make_unique<FileSink>(options.out, "ply", write, plan.up, "write surface",
+                                               clock, "surface_"));
+  }
   if (options.render.png || options.render.mp4) {
     auto render_sink = std::make_unique<RenderSink>(
         plan.render, options.render.png ? options.out : "",
@@ -498,6 +520,31 @@ class PartialVideo {
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
+
+// What the surfaces of a session's frames left to loose grains: the frame with the most.
+struct SurfaceTally {
+  int frames = 0;
+  int worst_frame = -1;
+  size_t loose = 0, particles = 0;
+  int isolated = 0, smoothed_away = 0;
+
+  void add(const SnowSurface& m, const Snapshot& s) {
+    ++frames;
+    if (worst_frame >= 0 && m.loose.size() <= loose) return;
+    worst_frame = s.frame;
+    loose = m.loose.size(), particles = s.position.size();
+    isolated = m.isolated, smoothed_away = m.smoothed_away;
+  }
+  nlohmann::json toJson() const {
+    return {{"frames", frames},
+            {"most_loose",
+             {{"frame", worst_frame},
+              {"loose_grains", loose},
+              {"particles", particles},
+              {"isolated", isolated},
+              {"smoothed_away", smoothed_away}}}};
+  }
+};
 
 // A session's frames: steps to each frame and hands it to every sink, checkpoints at the
 // cadence, and stops at the end of the step in which a signal comes (the frame it interrupts is
@@ -549,6 +596,12 @@ class FrameLoop {
         snapshot = simulation_.snapshot(frame);
       }
       doing_ = "writing frame " + std::to_string(frame);
+      if (plan_.build_surface && writes_) {
+        const StageClock::Scope time(&clock_, "surface");
+        snapshot.surface =
+            std::make_shared<const SnowSurface>(buildSnowSurface(snapshot, plan_.surface));
+        surfaces_.add(*snapshot.surface, snapshot);
+      }
       for (auto& sink : sinks) sink->write(snapshot);
       progress_.frame(frame, simulation_);
       if (frame < frames_ && cadence_.due(written + 1)) {
@@ -568,6 +621,7 @@ class FrameLoop {
 
   int frames() const { return frames_; }
   int stopSignal() const { return stop_signal_; }
+  const SurfaceTally& surfaces() const { return surfaces_; }
   const StepWatch& stepWatch() const { return step_watch_; }
 
  private:
@@ -634,6 +688,7 @@ class FrameLoop {
   StepWatch step_watch_;
   CheckpointCadence cadence_;
   int stop_signal_ = 0;
+  SurfaceTally surfaces_;
 };
 
 // A session of a run, once its output directory is ready: sets up the simulation and the
@@ -689,6 +744,14 @@ void runSession(const RunOptions& options, RunPlan& plan, SavedRun* saved, RankE
   if (options.scale != 1) summary["scale"] = options.scale;
   summary["up_axis"] = options.z_up ? "z" : "y";
   if (options.vdb) summary["vdb"] = true;
+  if (const SurfaceTally& surfaces = loop.surfaces(); surfaces.frames > 0) {
+    summary["surface"] = surfaces.toJson();
+    std::fprintf(stderr,
+                 "snowsim: surface: at most %zu of %zu particles loose grains, drawn as spheres "
+                 "(frame %d: %d isolated, %d smoothed away)\n",
+                 surfaces.loose, surfaces.particles, surfaces.worst_frame, surfaces.isolated,
+                 surfaces.smoothed_away);
+  }
   if (saved) {
     summary["resumed_at_frame"] = plan.first_frame;
     summary["sessions"] = earlier.sessions + 1;
@@ -865,6 +928,10 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
       "--vdb", options->vdb,
       "Also write frame_NNNNN.vdb per frame (3D runs): OpenVDB grids density (kg/m^3) and "
       "velocity (m/s) on voxels of the cell size, for volumetric rendering");
+  cmd->add_flag("--surface", options->surface,
+                "Also write surface_NNNNN.ply per frame (3D runs): the snow's surface mesh, "
+                "vertices with normals and triangles (settings: --surface-*), and with --vdb a "
+                "level set grid `surface` in each VDB");
   cmd->add_flag("--z-up", options->z_up,
                 "Write PLY and VDB frames with z up, as Blender's z-up world expects (Houdini is y "
                 "up, as snowsim): "

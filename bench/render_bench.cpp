@@ -1,7 +1,8 @@
 // Rendering speed: milliseconds per 1920x1080 frame of 3D snow (perspective) for 10k, 250k and 1M
-// spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; a
-// --look volume frame of the flagship smash's ball (268k particles); a 2D frame (orthographic,
-// the report's look) of 1M; and per frame for each encoder (PNG, MP4).
+// spheres, plain (no shadows, no occlusion), with shadows, with occlusion, and with both; the
+// flagship smash's ball (268k particles at cell 5 mm) in the volume look, and in the surface look:
+// building its surface, then drawing it; a 2D frame (orthographic, the report's look) of 1M; and
+// per frame for each encoder (PNG, MP4).
 // Medians of the wall time, and the process's CPU time a frame (all of llvmpipe's threads; on a
 // shared machine it tells the work apart from the waiting). Usage:
 //   render_bench [repetitions=5] [frames_directory]
@@ -14,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 
 #include <sys/resource.h>
 #include <random>
@@ -127,6 +129,29 @@ int main(int argc, char** argv) {
              volume.render(ball));
   std::printf("2D  1000000 spheres (sprites)    %s\n",
               timeFrames(plain, packedSnow(2, 1'000'000), repetitions).c_str());
+
+  {
+    // The surface is built once per frame, then drawn: the two parts apart, then a whole frame.
+    Snapshot ball = flagshipBall();
+    RenderSettings settings = fullHd(true, true);
+    settings.look = Look::Surface;
+    std::shared_ptr<const SnowSurface> surface;
+    const double cpu0 = cpuSeconds();
+    const double build = medianMs(repetitions, [&] {
+      surface = std::make_shared<const SnowSurface>(buildSnowSurface(ball, settings.surface));
+    });
+    const double build_cpu = 1e3 * (cpuSeconds() - cpu0) / repetitions;
+    ball.surface = surface;
+    Renderer renderer(settings);
+    std::printf("surface of %d particles: %zu triangles, %zu loose grains\n", ball.size(),
+                surface->triangles.size(), surface->loose.size());
+    std::printf("  build the surface     %6.0f (%5.0f)\n", build, build_cpu);
+    std::printf("  draw it (both)        %s\n", timeFrames(renderer, ball, repetitions).c_str());
+    ball.surface = nullptr;
+    std::printf("  build and draw        %s\n", timeFrames(renderer, ball, repetitions).c_str());
+    if (frames_directory)
+      writePng(std::string(frames_directory) + "/surface_ball.png", renderer.render(ball));
+  }
 
   const Image frame = plain.render(packedSnow(2, 10'000));
   const auto dir = std::filesystem::temp_directory_path();

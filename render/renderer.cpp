@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -37,12 +38,24 @@ ColorBy parseColorBy(const std::string& name, const std::string& where) {
 Look parseLook(const std::string& name, const std::string& where) {
   if (name == "studio") return Look::Studio;
   if (name == "figure") return Look::Figure;
+  if (name == "surface") return Look::Surface;
   if (name == "volume") return Look::Volume;
-  throw InputError(where + ": \"" + name + "\" is not allowed; allowed: studio, figure, volume");
+  throw InputError(where + ": \"" + name +
+                   "\" is not allowed; allowed: studio, figure, surface, volume");
 }
 
 std::string lookName(Look look) {
-  return look == Look::Figure ? "figure" : look == Look::Volume ? "volume" : "studio";
+  switch (look) {
+    case Look::Studio:
+      return "studio";
+    case Look::Figure:
+      return "figure";
+    case Look::Surface:
+      return "surface";
+    case Look::Volume:
+      return "volume";
+  }
+  return "";
 }
 
 void validate(const RenderSettings& s) {
@@ -76,6 +89,7 @@ void validate(const RenderSettings& s) {
                      numberText(s.color_range->low) + ", " + numberText(s.color_range->high) +
                      "] for --color-by plastic must hold J_P = 1 (no plastic change, the map's "
                      "neutral middle); allowed: 0 < low < 1 < high");
+  validate(s.surface, "--surface-");
 }
 
 namespace {
@@ -324,10 +338,13 @@ struct Renderer::Gl {
   ShadowMap shadow;
   GLuint sphere_vao = 0, corner_vbo = 0, instance_vbo = 0, line_vao = 0, line_vbo = 0;
   GLuint mesh_vao = 0, mesh_vbo = 0, screen_vao = 0;
+  GLuint snow_vao = 0, snow_vbo = 0, snow_ebo = 0;  // the surface look's mesh, indexed
   std::vector<float> instances, lines, floor_lines, cells, meshes;  // per frame, reused
-  std::vector<std::uint32_t> seen_by_camera, seen_by_light;         // 3D: particles not buried
-  GLsizei ground_vertices = 0;  // the ground leads `meshes` in 3D
-  SnowVolume volume;            // --look volume: the snow as a medium, and its 3D texture
+  std::vector<float> snow_vertices, particle_colours;               // the surface look's, reused
+  GLsizei snow_indices = 0;
+  std::vector<std::uint32_t> seen_by_camera, seen_by_light;  // 3D: particles not buried
+  GLsizei ground_vertices = 0;                               // the ground leads `meshes` in 3D
+  SnowVolume volume;  // --look volume: the snow as a medium, and its 3D texture
   GLuint volume_texture = 0;
 
   // A run of particles in the instance buffer.
@@ -339,6 +356,11 @@ struct Renderer::Gl {
   // Vertices of position and colour (render/grid_lines.h) as lines or triangles.
   void drawLines(const View& camera, float marker, const std::vector<float>& vertices, GLenum mode);
   void drawMeshes(GLuint program, const View& camera, GLint first, GLsizei count);
+  void drawSnow(GLuint program, const View& camera);
+  // The surface's vertices (position, normal, the colour of the particles near it) and
+  // triangles into the snow buffers.
+  void fillSnow(const Snapshot& s, const SnowSurface& surface, const RenderSettings& settings,
+                double spacing);
   // Particles of the instance buffer: impostors, or one point sprite each (round_up: sprite
   // sizes round up, shaders/points.vert).
   void drawSpheres(GLuint program, const View& camera, float radius, int viewport_height,
@@ -373,6 +395,47 @@ void Renderer::Gl::drawMeshes(GLuint program, const View& camera, GLint first, G
   setUniform(program, "light_direction", glm::vec3(-0.4f, 0.7f, 0.6f));
   glBindVertexArray(mesh_vao);
   glDrawArrays(GL_TRIANGLES, first, count);
+}
+
+void Renderer::Gl::drawSnow(GLuint program, const View& camera) {
+  if (snow_indices == 0) return;
+  setCamera(program, camera);
+  glBindVertexArray(snow_vao);
+  glDrawElements(GL_TRIANGLES, snow_indices, GL_UNSIGNED_INT, nullptr);
+}
+
+void Renderer::Gl::fillSnow(const Snapshot& s, const SnowSurface& surface,
+                            const RenderSettings& settings, double spacing) {
+  const ColourRange range = colourRange(settings, s);
+  const ColorBy by = settings.color_by == ColorBy::Density && s.density.empty() ? ColorBy::White
+                                                                                : settings.color_by;
+  std::vector<float> at_vertices;
+  if (by != ColorBy::White) {
+    particle_colours.resize(static_cast<size_t>(s.size()) * 3);
+    for (int i = 0; i < s.size(); ++i) {
+      const glm::vec3 c = particleColour(s, i, by, range);
+      for (int k = 0; k < 3; ++k) particle_colours[3 * i + k] = c[k];
+    }
+    at_vertices = averageAtVertices(surface, s.position, particle_colours, 3, 2 * spacing);
+  }
+  const glm::vec3 white = particleColour(s, 0, ColorBy::White, range);
+  snow_vertices.resize(surface.vertices.size() * 9);
+  for (size_t v = 0; v < surface.vertices.size(); ++v) {
+    float* o = &snow_vertices[9 * v];
+    for (int k = 0; k < 3; ++k) {
+      o[k] = surface.vertices[v][k];
+      o[3 + k] = surface.normals[v][k];
+      o[6 + k] = at_vertices.empty() ? white[k] : at_vertices[3 * v + k];
+    }
+  }
+  glBindVertexArray(snow_vao);
+  glBindBuffer(GL_ARRAY_BUFFER, snow_vbo);
+  glBufferData(GL_ARRAY_BUFFER, snow_vertices.size() * sizeof(float), snow_vertices.data(),
+               GL_STREAM_DRAW);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, snow_ebo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, surface.triangles.size() * sizeof(surface.triangles[0]),
+               surface.triangles.data(), GL_STREAM_DRAW);
+  snow_indices = static_cast<GLsizei>(surface.triangles.size() * 3);
 }
 
 void Renderer::Gl::drawSpheres(GLuint program, const View& camera, float radius,
@@ -445,7 +508,10 @@ Renderer::Renderer(const RenderSettings& settings)
 
   g.line_vao = makeVertexArray(g.line_vbo, 2);  // position, colour
   g.mesh_vao = makeVertexArray(g.mesh_vbo, 3);  // position, normal, colour
-  glGenVertexArrays(1, &g.screen_vao);          // the full-screen triangle needs no attributes
+  g.snow_vao = makeVertexArray(g.snow_vbo, 3);  // the same, and its triangles' indices
+  glGenBuffers(1, &g.snow_ebo);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g.snow_ebo);
+  glGenVertexArrays(1, &g.screen_vao);  // the full-screen triangle needs no attributes
 }
 
 Renderer::~Renderer() = default;
@@ -515,7 +581,18 @@ Image Renderer::render(const Snapshot& s) {
       glBindFramebuffer(GL_DRAW_FRAMEBUFFER, g.resolve_fbo);
       glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
     }
+  } else if (settings_.look == Look::Surface) {
+    // The surface in place of the spheres; its loose grains as spheres, seen and casting shadows.
+    std::optional<SnowSurface> built;
+    if (!s.surface) built = buildSnowSurface(s, settings_.surface);
+    const SnowSurface& surface = s.surface ? *s.surface : *built;
+    g.fillInstances(s, settings_, {&surface.loose, &surface.loose});  // checks the colouring
+    g.fillSnow(s, surface, settings_, spacing);
+    const auto loose = static_cast<GLsizei>(surface.loose.size());
+    g.renderDeferred(settings_, camera, palette, extent, radius, sprites, mesh_vertices, {0, loose},
+                     {loose, settings_.shadows ? loose : 0});
   } else {
+    g.snow_indices = 0;
     // Particles buried in the snow are left out of the passes that cannot see them.
     const BuriedParticles buried(s.position, static_cast<float>(spacing), radius);
     g.seen_by_camera.clear();
@@ -635,6 +712,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
     glClear(GL_DEPTH_BUFFER_BIT);
     g.drawSpheres(p.point_depth, light.camera, radius, light.size, true, seen_by_light, true);
     g.drawMeshes(p.mesh_depth, light.camera, g.ground_vertices, mesh_vertices - g.ground_vertices);
+    g.drawSnow(p.mesh_depth, light.camera);
   }
 
   // The G-buffer: the ground (pushed back, so grid lines and colliders on it win), the
@@ -660,6 +738,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   g.drawLines(camera, 0.5f, g.lines, GL_LINES);
   g.drawLines(camera, 1.f, g.floor_lines, GL_LINES);
   glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  g.drawSnow(p.mesh_gbuffer, camera);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);
   glDisable(GL_DEPTH_TEST);

@@ -4,8 +4,9 @@
 // right), drawn deferred: a G-buffer of the spheres, ground and colliders, then one lighting pass
 // with a key light and its shadow map, a sky fill and screen-space ambient occlusion. Spheres a
 // few pixels wide are point sprites instead of ray-cast impostors; particles buried in packed snow
-// are left out of the passes that cannot see them. The volume look marches the snow's density
-// over the lit ground and colliders instead of drawing spheres (docs/rendering.md).
+// are left out of the passes that cannot see them (docs/rendering.md). The surface look draws the
+// snow's surface mesh (sim/geometry/snow_surface.h) in place of the spheres, and its loose grains
+// as spheres; the volume look marches the snow's density over the lit ground and colliders.
 #pragma once
 
 #include <array>
@@ -16,6 +17,7 @@
 #include "render/camera.h"
 #include "render/image.h"
 #include "sim/core/snapshot.h"
+#include "sim/geometry/snow_surface.h"
 
 namespace snowsim {
 
@@ -26,11 +28,12 @@ enum class ColorBy { White, Density, Speed, Plastic };
 // Parses "white", "density", "speed", "plastic"; throws InputError listing the allowed names.
 ColorBy parseColorBy(const std::string& name, const std::string& where = "--color-by");
 
-// Studio: a dark background (the report's). Figure: white, like a paper's figure. Volume (3D):
-// the studio's, with the snow as a ray-marched density volume instead of spheres.
-enum class Look { Studio, Figure, Volume };
+// Studio: a dark background (the report's). Figure: white, like a paper's figure. Surface: the
+// studio's background and light, the 3D snow drawn as its surface (2D frames: as studio).
+// Volume (3D): the studio's, with the snow as a ray-marched density volume instead of spheres.
+enum class Look { Studio, Figure, Surface, Volume };
 
-// Parses "studio", "figure", "volume"; throws InputError listing the allowed names.
+// Parses "studio", "figure", "surface", "volume"; throws InputError listing the allowed names.
 Look parseLook(const std::string& name, const std::string& where = "--look");
 
 // The name parseLook reads.
@@ -57,7 +60,11 @@ struct RenderSettings {
   // Fixed for a run so that colours mean the same in every frame; none: render/colour.h's
   // default for the attribute.
   std::optional<ColourRange> color_range;
+  SurfaceSettings surface;  // the surface look's, for frames that carry no surface
 };
+
+// "studio", "figure" or "surface": the name parseLook reads.
+std::string lookName(Look look);
 
 // Checks sizes and values; throws InputError naming the setting and what is allowed.
 void validate(const RenderSettings& settings);

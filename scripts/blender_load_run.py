@@ -34,6 +34,10 @@ particle and frame.
 With --vdb, the run's frame_NNNNN.vdb files (snowsim run --vdb) become a volume object,
 `snowsim_volume`, with the grids `density` and `velocity`, turned the same way.
 
+A run made with --surface has surface_NNNNN.ply files: without --bake they become one mesh
+object, `snowsim_surface`, shaded smooth, turned the same way, whose vertices and triangles the
+same handler swaps in from each frame's file (--bake leaves them out).
+
 The run's colliders (colliders.json: boxes, spheres, planes, drums and meshes, posed at every
 frame) become objects under an empty, `snowsim_colliders`, turned the same way, keyframed frame by
 frame. The domain's floor becomes a plane, `snowsim_ground`, at Blender's z = 0. Loaded into
@@ -116,14 +120,52 @@ def ply_comment(path, key):
     return words[0] if words else None
 
 
-def frame_files(run_dir, extension):
-    """{snowsim frame number: path} of the run's frame_NNNNN.EXT files."""
+def frame_files(run_dir, extension, prefix="frame_"):
+    """{snowsim frame number: path} of the run's PREFIXNNNNN.EXT files (frame_, surface_)."""
     files = {}
     for name in os.listdir(run_dir):
         stem, ext = os.path.splitext(name)
-        if ext == "." + extension and stem.startswith("frame_") and stem[6:].isdigit():
-            files[int(stem[6:])] = os.path.join(run_dir, name)
+        number = stem[len(prefix):]
+        if ext == "." + extension and stem.startswith(prefix) and number.isdigit():
+            files[int(number)] = os.path.join(run_dir, name)
     return dict(sorted(files.items()))
+
+
+def read_surface_ply(path):
+    """A surface_NNNNN.ply (snowsim run --surface): its vertex positions and triangles."""
+    with open(path, "rb") as f:
+        counts, properties = {}, []
+        while True:
+            words = f.readline().decode("ascii").split()
+            if words == ["end_header"]:
+                break
+            if words and words[0] == "element":
+                counts[words[1]] = int(words[2])
+            if words and words[0] == "property" and words[1] != "list":
+                properties.append((words[2], PLY_TYPES[words[1]]))
+        vertices = np.fromfile(f, dtype=np.dtype(properties), count=counts["vertex"])
+        faces = np.fromfile(f, dtype=np.dtype([("n", "u1"), ("v", "<u4", (3,))]),
+                            count=counts["face"])
+    if len(faces) and (faces["n"] != 3).any():
+        raise ValueError(path + ": only triangles are read")
+    return np.column_stack([vertices["x"], vertices["y"], vertices["z"]]), faces["v"]
+
+
+def show_surface(obj, path):
+    """Puts the surface mesh at `path` into the object's mesh."""
+    positions, triangles = read_surface_ply(path)
+    mesh = obj.data
+    mesh.clear_geometry()
+    mesh.vertices.add(len(positions))
+    mesh.vertices.foreach_set("co", positions.astype(np.float32).ravel())
+    mesh.loops.add(3 * len(triangles))
+    mesh.loops.foreach_set("vertex_index", triangles.astype(np.int32).ravel())
+    mesh.polygons.add(len(triangles))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, dtype=np.int32))
+    mesh.update(calc_edges=True)
+    mesh.polygons.foreach_set("use_smooth", np.ones(len(triangles), dtype=bool))
+    obj["snowsim_surface_file"] = path
 
 
 def show_frame(obj, path):
@@ -155,6 +197,14 @@ def snowsim_frame_change(scene, depsgraph=None):
     """Shows, on every object loaded from a run, the frame at or before the scene's frame."""
     for obj in scene.objects:
         run_dir = obj.get("snowsim_run")
+        if run_dir and "snowsim_surface_file" in obj:
+            surfaces = frame_files(run_dir, "ply", "surface_")
+            earlier = [k for k in surfaces if k <= scene.frame_current]
+            if surfaces:
+                path = surfaces[earlier[-1] if earlier else next(iter(surfaces))]
+                if obj.get("snowsim_surface_file") != path:
+                    show_surface(obj, path)
+            continue
         # The particles: a run's mesh that shows a frame (not its ground).
         if not run_dir or obj.type != "MESH" or "snowsim_frame_file" not in obj:
             continue
@@ -614,6 +664,11 @@ def load_run(run_dir, with_volume=False, bake=False):
     scene.frame_end = next(reversed(files))
     if with_volume:
         load_volume(run_dir, scene, volumes, up)
+    surfaces = frame_files(run_dir, "ply", "surface_")
+    if surfaces and not bake:
+        surface = run_object("snowsim_surface", run_dir, scene, "MESH")
+        turn_to_z_up(surface, up)
+        show_surface(surface, next(iter(surfaces.values())))
     for shape in load_colliders(run_dir, scene, up):
         print("blender_load_run.py: a %s collider is not drawn" % shape, file=sys.stderr)
     load_ground(run_dir, scene, first)

@@ -11,6 +11,8 @@
 
 namespace snowsim {
 
+struct SnowSurface;  // sim/geometry/snow_surface.h
+
 struct GridInfo {
   int dimension = 2;
   std::array<int, 3> cells{1, 1, 1};  // cells along x, y, z (z = 1 in 2D)
@@ -62,6 +64,9 @@ struct Snapshot {
   std::vector<float> mass;    // kg (2D: kg per metre of depth)
   std::vector<float> radius;  // m: half the edge of the particle's rest volume, (m / rho)^(1/D) / 2
   std::vector<SnapshotCollider> colliders;  // the scene's colliders (not the domain walls)
+  // The snow's surface when a run built it for this frame (--surface, --look surface), shared by
+  // the writers and the renderer; none: whoever needs it builds it.
+  std::shared_ptr<const SnowSurface> surface;
 
   int size() const { return static_cast<int>(position.size()); }
 };

@@ -121,6 +121,39 @@ void writePly(const std::string& path, const Snapshot& s, UpAxis up) {
   writeFileAtomically(path, body);
 }
 
+void writeSurfacePly(const std::string& path, const SnowSurface& m, const Snapshot& s, UpAxis up) {
+  std::ostringstream header;
+  header.precision(17);
+  header << "ply\nformat binary_little_endian 1.0\n"
+         << "comment snowsim surface of frame " << s.frame << "\n"
+         << "comment snowsim time " << s.time << "\n"
+         << "comment snowsim up " << (up == UpAxis::Z ? "z" : "y") << "\n"
+         << "comment snowsim loose_grains " << m.loose.size() << " of " << s.size()
+         << " particles (isolated " << m.isolated << ", smoothed_away " << m.smoothed_away << ")\n"
+         << "element vertex " << m.vertices.size() << "\n"
+         << "property float x\nproperty float y\nproperty float z\n"
+         << "property float nx\nproperty float ny\nproperty float nz\n"
+         << "element face " << m.triangles.size() << "\n"
+         << "property list uchar uint vertex_indices\nend_header\n";
+  std::string body = header.str();
+  std::vector<float> vertices(m.vertices.size() * 6);
+  for (size_t v = 0; v < m.vertices.size(); ++v) {
+    const auto position = toUpAxis(m.vertices[v], up), normal = toUpAxis(m.normals[v], up);
+    for (int a = 0; a < 3; ++a)
+      vertices[6 * v + a] = position[a], vertices[6 * v + 3 + a] = normal[a];
+  }
+  body.append(reinterpret_cast<const char*>(vertices.data()), vertices.size() * sizeof(float));
+  constexpr size_t kFace = 1 + 3 * sizeof(std::uint32_t);
+  const size_t faces_at = body.size();
+  body.resize(faces_at + m.triangles.size() * kFace);
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    char* face = &body[faces_at + t * kFace];
+    face[0] = 3;
+    std::memcpy(face + 1, m.triangles[t].data(), 3 * sizeof(std::uint32_t));
+  }
+  writeFileAtomically(path, body);
+}
+
 Snapshot readPly(const std::string& path, PlyContent content) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open the PLY file");
@@ -273,7 +306,9 @@ Snapshot readPly(std::istream& in, const std::string& path, PlyContent content) 
 std::vector<std::string> plyFramesIn(const std::string& directory) {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(directory))
-    if (entry.path().extension() == ".ply") files.push_back(entry.path().string());
+    if (entry.path().extension() == ".ply" &&
+        entry.path().filename().string().rfind("surface_", 0) != 0)
+      files.push_back(entry.path().string());
   if (files.empty()) throw InputError(directory + ": no .ply frames in this directory");
   std::sort(files.begin(), files.end());
   return files;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "sim/core/snapshot.h"
+#include "sim/geometry/snow_surface.h"
 #include "sim/io/up_axis.h"
 
 namespace snowsim {
@@ -17,6 +18,13 @@ namespace snowsim {
 // Writes atomically (a temporary file renamed into place). Throws InputError when it cannot.
 // UpAxis::Z writes positions and velocities turned to z up (sim/io/up_axis.h).
 void writePly(const std::string& path, const Snapshot& snapshot, UpAxis up = UpAxis::Y);
+
+// The snow's surface mesh of a frame (sim/geometry/snow_surface.h) as binary little-endian PLY:
+// vertices float x y z nx ny nz, faces as lists of three uint vertex_indices (counter-clockwise
+// seen from outside), the frame, time, up axis and loose grains in comments. Atomic, turned to
+// z up as writePly does; throws InputError when it cannot write.
+void writeSurfacePly(const std::string& path, const SnowSurface& surface, const Snapshot& snapshot,
+                     UpAxis up = UpAxis::Y);
 
 // What a reader needs from a file: a snowsim frame (the grid comments and density, for drawing
 // it), or only particles (x y z vx vy vz; any other tool's binary PLY) to start a run from.
@@ -28,8 +36,8 @@ Snapshot readPly(const std::string& path, PlyContent content = PlyContent::Frame
 // The same from a stream that can seek (a file, a string), `path` naming it in messages.
 Snapshot readPly(std::istream& in, const std::string& path, PlyContent content = PlyContent::Frame);
 
-// The .ply files of a directory (a run's frame_NNNNN.ply), sorted by name. Throws InputError when
-// there are none.
+// The .ply files of a directory (a run's frame_NNNNN.ply, not its surface_NNNNN.ply meshes),
+// sorted by name. Throws InputError when there are none.
 std::vector<std::string> plyFramesIn(const std::string& directory);
 
 }  // namespace snowsim

@@ -5,9 +5,11 @@
 #include <mutex>
 
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/SignedFloodFill.h>
 
 #include "sim/core/bspline.h"
 #include "sim/core/errors.h"
+#include "sim/geometry/snow_surface.h"
 #include "sim/io/files.h"
 
 namespace snowsim {
@@ -18,6 +20,23 @@ namespace {
 openvdb::Coord voxelOf(int i, int j, int k, UpAxis up) {
   const auto turned = toUpAxis<int>({i, j, k}, up);
   return {turned[0], turned[1], turned[2]};
+}
+
+// The surface's narrow band as a level set grid; the interior's tiles take their sign from it.
+openvdb::FloatGrid::Ptr surfaceGrid(const SurfaceField& field, UpAxis up) {
+  auto grid = openvdb::FloatGrid::create(field.background);
+  {
+    auto at = grid->getAccessor();
+    for (size_t v = 0; v < field.voxels.size(); ++v) {
+      const auto& c = field.voxels[v];
+      at.setValue(voxelOf(c[0], c[1], c[2], up), field.values[v]);
+    }
+  }
+  openvdb::tools::signedFloodFill(grid->tree());
+  grid->setTransform(openvdb::math::Transform::createLinearTransform(field.voxel_size));
+  grid->setName("surface");
+  grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  return grid;
 }
 
 }  // namespace
@@ -64,10 +83,9 @@ void writeVdb(const std::string& path, const Snapshot& s, UpAxis up) {
   velocity->setName("velocity");
   velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
   openvdb::GridPtrVec grids{density, velocity};
-  for (auto& grid : grids) {
-    grid->setTransform(transform->copy());
-    grid->insertMeta("snowsim_time", openvdb::DoubleMetadata(s.time));
-  }
+  for (auto& grid : grids) grid->setTransform(transform->copy());
+  if (s.surface) grids.push_back(surfaceGrid(s.surface->field, up));
+  for (auto& grid : grids) grid->insertMeta("snowsim_time", openvdb::DoubleMetadata(s.time));
 
   const std::string temporary = path + ".tmp";
   const UnfinishedFile unfinished(temporary);  // a second signal removes it

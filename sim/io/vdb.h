@@ -16,6 +16,9 @@ namespace snowsim {
 // reaches. Voxel (i, j, k) is node (i, j, k) (turned with the positions when `up` is z), so the
 // volume lies where the PLY's particles do. Needs a 3D snapshot with masses. Writes atomically
 // (a temporary file renamed into place); throws InputError naming the file when it cannot.
+// A snapshot that carries its surface (sim/geometry/snow_surface.h) adds the FloatGrid `surface`
+// (GRID_LEVEL_SET: the signed distance in m, negative inside, its narrow band active) on voxels
+// of the surface's size, placed alike: voxel (i, j, k) at (i, j, k) times it, turned for z up.
 void writeVdb(const std::string& path, const Snapshot& snapshot, UpAxis up = UpAxis::Y);
 
 }  // namespace snowsim

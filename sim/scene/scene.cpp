@@ -506,7 +506,8 @@ SceneRender parseRender(const Json* j, const std::string& file) {
   if (f.given("sphere_radius")) r.sphere_radius = f.number("sphere_radius", std::nullopt, 0, 10);
   if (f.given("grid")) r.grid = f.boolean("grid", std::nullopt);
   if (f.given("density_cells")) r.density_cells = f.boolean("density_cells", std::nullopt);
-  if (f.given("look")) r.look = f.choice("look", {"studio", "figure", "volume"}, std::nullopt);
+  if (f.given("look"))
+    r.look = f.choice("look", {"studio", "figure", "surface", "volume"}, std::nullopt);
   if (f.given("background")) {
     r.background = point(f, "background", std::nullopt);
     for (double c : *r.background)

@@ -605,6 +605,53 @@ TEST(Cli, RenderRedrawsSavedFrames) {
   EXPECT_FALSE(fs::exists(again)) << "images written before the damaged frame";
 }
 
+// The surface look and its files: a run draws it and says how many grains it left loose, `render`
+// draws a saved run so (the surface meshes are not frames to it), --overwrite removes the meshes.
+TEST(Cli, SurfaceLookDrawsARunAndItsSavedFrames) {
+  const fs::path out = freshDir("surface_look");
+  const std::string run = "run " + scene("study_smash_3d") + " -o " + out.string() +
+                          " --set time.duration=0.04 --width 96 --height 64 --no-mp4 --surface "
+                          "--look surface --color-by plastic";
+  const Result r = runSnowsim(run);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("snowsim: surface: at most "), std::string::npos) << r.output;
+  const nlohmann::json summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["drawing"]["look"], "surface");
+  EXPECT_EQ(summary["drawing"]["surface"]["filter"], "gaussian");
+  EXPECT_EQ(summary["surface"]["frames"], 3);
+  EXPECT_LE(summary["surface"]["most_loose"]["loose_grains"].get<int>(),
+            summary["surface"]["most_loose"]["particles"].get<int>());
+  for (const char* name : {"frame_00002.png", "surface_00002.ply", "frame_00002.ply"})
+    EXPECT_TRUE(fs::exists(out / name)) << name;
+
+  // Redrawn from the saved particles, as the run drew it.
+  const fs::path again = out / "again";
+  const Result render =
+      runSnowsim("render " + out.string() + " -o " + again.string() + " --no-mp4");
+  ASSERT_EQ(render.code, 0) << render.output;
+  EXPECT_NE(render.output.find("3 frames drawn"), std::string::npos) << render.output;
+  EXPECT_EQ(snowsim::readPng((again / "frame_00002.png").string()).rgba,
+            snowsim::readPng((out / "frame_00002.png").string()).rgba);
+
+  const Result refused = runSnowsim(run);
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE(refused.output.find("3 surface PLY frames"), std::string::npos) << refused.output;
+  ASSERT_EQ(runSnowsim(run + " --overwrite --set time.duration=0.02").code, 0);
+  EXPECT_FALSE(fs::exists(out / "surface_00002.ply")) << "an earlier run's mesh left behind";
+  EXPECT_TRUE(fs::exists(out / "surface_00001.ply"));
+
+  const Result bad = runSnowsim(run + " --overwrite --surface-filter box");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("--surface-filter: \"box\" is not allowed; allowed: gaussian, "
+                            "mean-curvature, none"),
+            std::string::npos)
+      << bad.output;
+  const Result coarse = runSnowsim(run + " --overwrite --surface-voxel 0");
+  EXPECT_EQ(coarse.code, 2);
+  EXPECT_NE(coarse.output.find("--surface-voxel 0 is out of range"), std::string::npos)
+      << coarse.output;
+}
+
 // Every file of a directory, by name, with its bytes: what a refused command must leave as it was.
 std::map<std::string, std::string> everyFile(const fs::path& dir) {
   std::map<std::string, std::string> files;

@@ -376,6 +376,57 @@ TEST(Renderer, PresetCameraFramesTheSnow) {
   EXPECT_THROW(parseCameraPreset("below", "--camera-preset"), InputError);
 }
 
+// A ball of 8,000 particles on a lattice, the camera close: as beads its disc is speckled by
+// each sphere's shading, as a surface it is smooth. Measured over the pixels where the ball
+// differs from the empty frame, away from its outline: the mean distance of each pixel's
+// luminance from its 3x3 neighbourhood's mean.
+TEST(Renderer, SurfaceLookDrawsABallSmoothly) {
+  Snapshot s = emptyDomain(3);
+  s.grid.particle_spacing = 0.0025;
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 20; ++i) {
+        const float x = (i - 9.5f) * 0.0025f, y = (j - 9.5f) * 0.0025f, z = (k - 9.5f) * 0.0025f;
+        if (x * x + y * y + z * z <= 0.025f * 0.025f)
+          addParticle(s, 0.05f + x, 0.06f + y, 0.05f + z);
+      }
+  auto noiseOverTheBall = [&](Look look) {
+    RenderSettings settings = testSettings();
+    settings.look = look;
+    settings.show_grid = false;
+    settings.camera.custom = true;
+    settings.camera.eye = {0.05, 0.08, 0.14};
+    settings.camera.target = {0.05, 0.06, 0.05};
+    Renderer renderer(settings);
+    const Image image = renderer.render(s);
+    Snapshot empty = s;
+    empty.position.clear();
+    empty.velocity.clear();
+    empty.density.clear();
+    const Image without = renderer.render(empty);
+    double sum = 0;
+    int pixels = 0;
+    for (int y = 3; y + 3 < kHeight; ++y)
+      for (int x = 3; x + 3 < kWidth; ++x) {
+        bool inside = true;  // the ball here and in every pixel 3 away
+        for (int dy = -3; dy <= 3 && inside; dy += 3)
+          for (int dx = -3; dx <= 3 && inside; dx += 3)
+            inside =
+                colourDistance(image.pixel(x + dx, y + dy), without.pixel(x + dx, y + dy)) > 24;
+        if (!inside) continue;
+        double neighbourhood = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) neighbourhood += luminance(image.pixel(x + dx, y + dy));
+        sum += std::abs(luminance(image.pixel(x, y)) - neighbourhood / 9);
+        ++pixels;
+      }
+    EXPECT_GT(pixels, kWidth * kHeight / 10) << lookName(look) << ": the ball fills the view";
+    return sum / std::max(pixels, 1);
+  };
+  const double beads = noiseOverTheBall(Look::Studio), surface = noiseOverTheBall(Look::Surface);
+  EXPECT_LT(surface, 0.25 * beads) << "beads " << beads << ", surface " << surface;
+}
+
 TEST(Image, PngRoundTripsAndWritesAtomically) {
   const Image image = sharedRenderer().render(emptyDomain(2));
   const auto path = snowsim_test::processTempDir() / "image.png";

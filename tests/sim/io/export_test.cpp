@@ -1,17 +1,26 @@
-// Taking snow to other tools and back: the PLY's attributes, --z-up, the VDB volumes, the Blender
-// loader (run in Debian's Blender) and runs that start from a PLY frame.
+// Taking snow to other tools and back: the PLY's attributes, --z-up, the VDB volumes, the surface's
+// mesh and level set, the Blender loader (run in Debian's Blender) and runs that start from a PLY
+// frame.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
+#include <vector>
 
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Interpolation.h>
 #include <nlohmann/json.hpp>
 
 #include "sim/io/ply.h"
+#include "sim/io/up_axis.h"
 #include "tests/support/run_snowsim.h"
 
 namespace {
@@ -92,6 +101,139 @@ TEST(Export, VdbIsRefusedFor2DRuns) {
                               "/scenes/snowball_drop.json -o " + out.string() + " --vdb");
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("--vdb"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "frame_00000.ply"));
+}
+
+// A surface PLY as writeSurfacePly writes it: its comments, vertices (x y z nx ny nz) and faces.
+struct SurfaceFile {
+  std::string header;
+  std::vector<std::array<float, 6>> vertices;
+  std::vector<std::array<std::uint32_t, 3>> faces;
+};
+
+SurfaceFile readSurfaceFile(const fs::path& file) {
+  SurfaceFile m;
+  m.header = plyHeader(file);
+  size_t vertices = 0, faces = 0;
+  std::istringstream lines(m.header);
+  for (std::string line; std::getline(lines, line);) {
+    std::sscanf(line.c_str(), "element vertex %zu", &vertices);
+    std::sscanf(line.c_str(), "element face %zu", &faces);
+  }
+  std::ifstream in(file, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(m.header.size() + std::string("end_header\n").size()));
+  m.vertices.resize(vertices);
+  in.read(reinterpret_cast<char*>(m.vertices.data()), vertices * sizeof(m.vertices[0]));
+  m.faces.resize(faces);
+  for (auto& face : m.faces) {
+    unsigned char count = 0;
+    in.read(reinterpret_cast<char*>(&count), 1);
+    EXPECT_EQ(count, 3);
+    in.read(reinterpret_cast<char*>(face.data()), sizeof face);
+  }
+  EXPECT_TRUE(in) << file << " is shorter than its header says";
+  EXPECT_EQ(in.peek(), EOF) << file << " is longer than its header says";
+  return m;
+}
+
+// The surface's mesh and its level set grid, y up and z up, against the particles they come from.
+TEST(Export, SurfaceMeshAndLevelSetSitOnTheSnow) {
+  openvdb::initialize();
+  for (const bool z_up : {false, true}) {
+    const fs::path out = freshDir(z_up ? "export_surface_z" : "export_surface_y");
+    runSmash(out, 0.02, std::string("--surface --vdb") + (z_up ? " --z-up" : ""));
+    const SurfaceFile m = readSurfaceFile(out / "surface_00001.ply");
+    const snowsim::Snapshot s = snowsim::readPly((out / "frame_00001.ply").string());
+    EXPECT_NE(m.header.find("property list uchar uint vertex_indices\n"), std::string::npos);
+    EXPECT_NE(m.header.find(z_up ? "comment snowsim up z\n" : "comment snowsim up y\n"),
+              std::string::npos)
+        << m.header;
+    EXPECT_NE(m.header.find("comment snowsim loose_grains "), std::string::npos) << m.header;
+    ASSERT_GT(m.faces.size(), 100u);
+    for (const auto& face : m.faces)
+      for (std::uint32_t v : face) ASSERT_LT(v, m.vertices.size());
+    // Every vertex within two particle spacings (5 mm) of the particles' box, in the file's axes.
+    std::array<float, 3> low{1e9f, 1e9f, 1e9f}, high{-1e9f, -1e9f, -1e9f};
+    for (const auto& x : s.position) {
+      const auto turned = snowsim::toUpAxis(x, z_up ? snowsim::UpAxis::Z : snowsim::UpAxis::Y);
+      for (int a = 0; a < 3; ++a)
+        low[a] = std::min(low[a], turned[a]), high[a] = std::max(high[a], turned[a]);
+    }
+    for (const auto& v : m.vertices)
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_GT(v[a], low[a] - 0.01f) << "axis " << a;
+        ASSERT_LT(v[a], high[a] + 0.01f) << "axis " << a;
+      }
+
+    // The VDB's `surface`: a level set on half-cell voxels, zero on the mesh, negative at the
+    // snow's centre, where the file's axes put them.
+    openvdb::io::File file((out / "frame_00001.vdb").string());
+    file.open();
+    const auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("surface"));
+    file.close();
+    ASSERT_TRUE(grid);
+    EXPECT_EQ(grid->getGridClass(), openvdb::GRID_LEVEL_SET);
+    EXPECT_DOUBLE_EQ(grid->voxelSize()[0], 0.005);
+    const openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> phi(*grid);
+    for (size_t v = 0; v < m.vertices.size(); v += 37)
+      ASSERT_LT(std::abs(phi.wsSample({m.vertices[v][0], m.vertices[v][1], m.vertices[v][2]})),
+                0.005)
+          << "vertex " << v;
+    std::array<double, 3> centre{};
+    for (int a = 0; a < 3; ++a) centre[a] = 0.5 * (low[a] + high[a]);
+    EXPECT_LT(phi.wsSample({centre[0], centre[1], centre[2]}), -0.005);
+  }
+}
+
+// The loader script in Debian's Blender: the surface meshes as one object, each frame's vertices
+// and triangles those of its file.
+TEST(Export, BlenderLoadsTheSurfaceMeshesAsOneAnimatedObject) {
+  if (runCommand("command -v blender").code != 0)
+    GTEST_SKIP() << "blender is not installed (apt-get install blender; scripts/setup.sh does)";
+  const fs::path out = freshDir("export_blender_surface");
+  runSmash(out, 0.04, "--surface");
+  const fs::path report = out.parent_path() / "blender_surface.json";
+  const std::string check =
+      "import bpy, json, numpy as np\n"
+      "o = bpy.data.objects['snowsim_surface']\n"
+      "frames = {}\n"
+      "for f in (1, 2):\n"
+      "    bpy.context.scene.frame_set(f)\n"
+      "    co = np.zeros(len(o.data.vertices) * 3, dtype=np.float32)\n"
+      "    o.data.vertices.foreach_get('co', co)\n"
+      "    co = co.reshape(-1, 3)\n"
+      "    frames[str(f)] = {'vertices': len(o.data.vertices), 'faces': len(o.data.polygons),\n"
+      "                      'low': co.min(0).tolist(), 'high': co.max(0).tolist()}\n"
+      "json.dump(frames, open('" +
+      report.string() + "', 'w'))\n";
+  const fs::path script = out.parent_path() / "blender_surface_check.py";
+  std::ofstream(script) << check;
+  const Result r = runCommand("blender -b --factory-startup --python-exit-code 1 --python " +
+                              std::string(SNOWSIM_SOURCE_DIR) + "/scripts/blender_load_run.py " +
+                              "--python " + script.string() + " -- " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto blender = nlohmann::json::parse(std::ifstream(report));
+  for (int frame : {1, 2}) {
+    const SurfaceFile m = readSurfaceFile(out / ("surface_0000" + std::to_string(frame) + ".ply"));
+    const nlohmann::json& seen = blender[std::to_string(frame)];
+    EXPECT_EQ(seen["vertices"].get<size_t>(), m.vertices.size()) << "frame " << frame;
+    EXPECT_EQ(seen["faces"].get<size_t>(), m.faces.size()) << "frame " << frame;
+    for (int a = 0; a < 3; ++a) {
+      float low = 1e9f, high = -1e9f;
+      for (const auto& v : m.vertices) low = std::min(low, v[a]), high = std::max(high, v[a]);
+      EXPECT_FLOAT_EQ(seen["low"][a].get<float>(), low) << "frame " << frame << " axis " << a;
+      EXPECT_FLOAT_EQ(seen["high"][a].get<float>(), high) << "frame " << frame << " axis " << a;
+    }
+  }
+  EXPECT_NE(blender["1"]["high"][0], blender["2"]["high"][0]) << "one frame shown throughout";
+}
+
+TEST(Export, SurfaceIsRefusedFor2DRuns) {
+  const fs::path out = freshDir("export_surface_2d");
+  const Result r = runSnowsim("run " + std::string(SNOWSIM_SOURCE_DIR) +
+                              "/scenes/snowball_drop.json -o " + out.string() + " --surface");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--surface"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out / "frame_00000.ply"));
 }
 

@@ -325,9 +325,10 @@ TEST(Scene, RenderLookBackgroundShadowsAndOcclusion) {
   EXPECT_EQ(s.render.occlusion, true);
   EXPECT_FALSE(loadScene(writeTemp(kMinimal)).render.look.has_value());
 
-  EXPECT_NE(errorOf(kMinimal, {"render.look=noir"})
-                .find(R"(render.look: "noir" is not allowed; allowed: "studio", "figure")"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(kMinimal, {"render.look=noir"})
+          .find(R"(render.look: "noir" is not allowed; allowed: "studio", "figure", "surface")"),
+      std::string::npos);
   EXPECT_NE(errorOf(kMinimal, {"render.background=[1, 2, 0]"})
                 .find("render.background: each of red, green, blue must be in [0, 1]"),
             std::string::npos);

@@ -204,3 +204,28 @@ def test_ctrl_c_stops_at_the_end_of_a_step(tmp_path):
     assert words[0] == "interrupted" and int(words[1]) > 1 and words[2] == "same", out
     # The stop came at the end of the step under way, not at the target.
     assert time.monotonic() - sent < 30
+
+
+def test_a_run_directory_checkpoint_loads_and_steps_as_resume_does(snowsim, tmp_path):
+    out = tmp_path / "run"
+    run = subprocess.Popen([BINARY, "run", scene_path("mpm_snowball_wall"), "-o", str(out),
+                            "--no-png", "--no-mp4", "--threads", "1", "--checkpoint-every", "1",
+                            "--set", "time.duration=1"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    checkpoint = out / "checkpoint.snowsim"
+    while not checkpoint.exists() and run.poll() is None:
+        time.sleep(0.01)
+    run.send_signal(signal.SIGTERM)
+    assert run.wait(timeout=60) == 143, "the run ended before it was stopped"
+
+    simulation = snowsim.Simulation.load(str(out))
+    scene = simulation.scene
+    assert 0 < simulation.time < scene.duration
+    subprocess.run([BINARY, "resume", str(out)], check=True, capture_output=True)
+    for frame in range(1, scene.frame_count + 1):
+        if frame / scene.fps > simulation.time + 1e-12:
+            simulation.advance_to(min(scene.duration, frame / scene.fps))
+    last = read_ply(out / f"frame_{scene.frame_count:05d}.ply")
+    positions = simulation.positions().astype(np.float32)
+    for a in range(3):
+        assert np.array_equal(last["xyz"[a]], positions[:, a])

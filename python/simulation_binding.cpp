@@ -65,12 +65,12 @@ py::array_t<double> arrayOf(const std::vector<double>& values, std::vector<py::s
   return out;
 }
 
-// The MPM solver's own state, which the report's method does not have.
+// The MPM solver's own state and grid, which the report's method does not hand out.
 void requireMpm(const PySimulation& self, const char* what) {
   if (self.scene.solver != SolverType::Mpm)
     throw py::value_error(std::string(what) +
-                          ": the density_hybrid solver keeps none (MPM only: load the scene with "
-                          "overrides={\"solver\": \"mpm\"})");
+                          ": MPM only; this simulation runs the report's density_hybrid solver "
+                          "(load the scene with overrides={\"solver\": \"mpm\"})");
 }
 
 // The grid's nodes as shape (nx, ny[, nz]) + tail, indexed by node along x, y, z: a copy.

@@ -61,6 +61,11 @@ std::uint64_t sceneHash(const Scene& scene) {
 
 void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation& simulation,
                     nlohmann::json run_state, bool across_ranks) {
+  writeCheckpointFile(checkpointPath(dir), scene, simulation, std::move(run_state), across_ranks);
+}
+
+void writeCheckpointFile(const std::string& file, const Scene& scene, const Simulation& simulation,
+                         nlohmann::json run_state, bool across_ranks) {
   run_state["scene"] = sceneToJson(scene);
   run_state["scene_file"] = scene.file;
   CheckpointHeader header;
@@ -69,45 +74,29 @@ void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation
   header.scene_hash = sceneHash(scene);
   header.snowsim_version = SNOWSIM_VERSION;
   if (!across_ranks) {
-    writeCheckpoint(checkpointPath(dir), header, run_state.dump(),
+    writeCheckpoint(file, header, run_state.dump(),
                     [&](StateWriter& out) { simulation.saveState(out); });
     return;
   }
   // The gather meets the other ranks once: its bytes are kept for the count and the write.
   StateWriter gathered;
   simulation.saveState(gathered);
-  writeCheckpoint(checkpointPath(dir), header, run_state.dump(),
+  writeCheckpoint(file, header, run_state.dump(),
                   [&](StateWriter& out) { out.append(gathered.bytes()); });
 }
 
-SavedRun loadCheckpoint(const std::string& dir) {
-  SavedRun saved;
-  saved.file = checkpointPath(dir);
-  if (!fs::exists(saved.file))
-    throw InputError(saved.file + ": no checkpoint to resume from" +
-                     (fs::exists(dir + "/run.json") ? " (run.json is there: the run ended)"
-                                                    : " (is " + dir + " a run's --out?)"));
-  // A damaged checkpoint names the one before it, kept beside it, to resume from instead.
-  Checkpoint checkpoint = [&] {
-    try {
-      return readCheckpoint(saved.file);
-    } catch (const DamagedCheckpoint& e) {
-      const std::string previous = saved.file + ".prev";
-      if (!fs::exists(previous)) throw;
-      throw InputError(std::string(e.what()) + "; the checkpoint before it is " + previous +
-                       ": `mv " + previous + " " + saved.file + "` resumes from there");
-    }
-  }();
-  const auto refuse = [&](const std::string& problem) {
-    return InputError(saved.file + ": " + problem);
-  };
+SavedRun readCheckpointFile(const std::string& file) {
+  Checkpoint checkpoint = readCheckpoint(file);
+  const auto refuse = [&](const std::string& problem) { return InputError(file + ": " + problem); };
   if (checkpoint.header.snowsim_version != SNOWSIM_VERSION)
     throw refuse("written by snowsim " + checkpoint.header.snowsim_version + "; this is snowsim " +
                  SNOWSIM_VERSION + ", whose steps may differ: resume it with that version");
+  SavedRun saved;
+  saved.file = file;
+  saved.scene_hash = checkpoint.header.scene_hash;
   saved.run_state = nlohmann::json::parse(checkpoint.run_state, nullptr, false);
   if (!saved.run_state.is_object() || !saved.run_state.contains("scene") ||
-      !saved.run_state["scene_file"].is_string() || !saved.run_state["args"].is_array() ||
-      !saved.run_state["next_frame"].is_number_integer())
+      !saved.run_state["scene_file"].is_string())
     throw refuse("its run state is not what snowsim writes");
   try {
     saved.scene = parseScene(saved.run_state["scene"], saved.run_state["scene_file"]);
@@ -118,6 +107,30 @@ SavedRun loadCheckpoint(const std::string& dir) {
       static_cast<int>(checkpoint.header.dimension) != saved.scene.dimension ||
       checkpoint.header.scalar_bytes != scalarBytes(saved.scene))
     throw refuse("its state is of another scene than the one it records");
+  saved.solver_state = std::move(checkpoint.solver_state);
+  return saved;
+}
+
+SavedRun loadCheckpoint(const std::string& dir) {
+  const std::string file = checkpointPath(dir);
+  if (!fs::exists(file))
+    throw InputError(file + ": no checkpoint to resume from" +
+                     (fs::exists(dir + "/run.json") ? " (run.json is there: the run ended)"
+                                                    : " (is " + dir + " a run's --out?)"));
+  // A damaged checkpoint names the one before it, kept beside it, to resume from instead.
+  SavedRun saved = [&] {
+    try {
+      return readCheckpointFile(file);
+    } catch (const DamagedCheckpoint& e) {
+      const std::string previous = file + ".prev";
+      if (!fs::exists(previous)) throw;
+      throw InputError(std::string(e.what()) + "; the checkpoint before it is " + previous +
+                       ": `mv " + previous + " " + file + "` resumes from there");
+    }
+  }();
+  const auto refuse = [&](const std::string& problem) { return InputError(file + ": " + problem); };
+  if (!saved.run_state["args"].is_array() || !saved.run_state["next_frame"].is_number_integer())
+    throw refuse("its run state is not what snowsim writes");
   const int next_frame = saved.run_state["next_frame"].get<int>();
   if (next_frame < 0 || next_frame > saved.scene.frameCount())
     throw refuse("its next frame, " + std::to_string(next_frame) + ", is not one of the run's");
@@ -125,10 +138,9 @@ SavedRun loadCheckpoint(const std::string& dir) {
   std::ifstream summary_file(dir + "/run.json");
   const auto summary = nlohmann::json::parse(summary_file, nullptr, false);
   if (summary.is_object() && summary.contains("resolved_scene") &&
-      hashOf(summary["resolved_scene"]) != checkpoint.header.scene_hash)
+      hashOf(summary["resolved_scene"]) != saved.scene_hash)
     throw refuse("of another scene than " + dir + "/run.json records (" +
                  summary.value("scene", std::string("?")) + "); resume only the run it belongs to");
-  saved.solver_state = std::move(checkpoint.solver_state);
   return saved;
 }
 

@@ -53,12 +53,23 @@ std::uint64_t sceneHash(const Scene& scene);
 void saveCheckpoint(const std::string& dir, const Scene& scene, const Simulation& simulation,
                     nlohmann::json run_state, bool across_ranks);
 
+// The same file at any path (the Python module's save): run_state needs no more than the scene,
+// which is added.
+void writeCheckpointFile(const std::string& file, const Scene& scene, const Simulation& simulation,
+                         nlohmann::json run_state, bool across_ranks);
+
 struct SavedRun {
   std::string file;  // the checkpoint read
   Scene scene;       // the resolved scene it ran
+  std::uint64_t scene_hash = 0;
   nlohmann::json run_state;
   std::string solver_state;
 };
+
+// A checkpoint file, checked for this snowsim version and against the scene it records:
+// InputError naming the file otherwise (DamagedCheckpoint, sim/io/checkpoint.h, when truncated or
+// corrupted). Whatever run state it holds beside the scene is the caller's to check.
+SavedRun readCheckpointFile(const std::string& file);
 
 // DIR's checkpoint, checked: InputError naming the file when there is none, or it is truncated,
 // corrupted, of another snowsim version, or of another scene than its own header or DIR's

@@ -27,6 +27,9 @@ packages=(
   # Blender 3.4.1 (about 30 s to install; the test skips itself without it); the script reads PLY
   # through numpy, which Debian's Blender only recommends
   blender python3-numpy
+  # python/: the snowsim Python module (pybind11 binds it to Debian's python3.11, numpy holds its
+  # arrays), its pytest tests and the plots of examples/python/
+  python3-dev pybind11-dev python3-pytest python3-matplotlib
 )
 
 missing=()

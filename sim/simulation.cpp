@@ -13,6 +13,26 @@ namespace snowsim {
 
 namespace {
 
+template <int D, class T>
+void putMpmState(const MpmSolver<D, T>& mpm, StateArrays& out) {
+  const MpmParticles<D, T>& p = mpm.outputParticles();  // in id order, as particles() is
+  out.elastic_gradient.resize(size_t(p.size()) * D * D);
+  out.plastic_j.resize(p.size());
+  for (int i = 0; i < p.size(); ++i) {
+    const size_t id = p.id[i];
+    for (int r = 0; r < D; ++r)
+      for (int c = 0; c < D; ++c) out.elastic_gradient[(id * D + r) * D + c] = p.F_E[i](r, c);
+    out.plastic_j[id] = p.J_P[i];
+  }
+  const GridGeometry<D>& grid = mpm.grid();
+  for (int a = 0; a < D; ++a) out.nodes[a] = grid.nodes[a];
+  const GridFields<D, T>& fields = mpm.fields();
+  out.node_mass.assign(fields.mass.begin(), fields.mass.end());
+  out.node_velocity.resize(fields.velocity.size() * D);
+  for (size_t k = 0; k < fields.velocity.size(); ++k)
+    for (int a = 0; a < D; ++a) out.node_velocity[k * D + a] = fields.velocity[k][a];
+}
+
 template <int D>
 class SimulationOf final : public Simulation {
  public:
@@ -35,6 +55,14 @@ class SimulationOf final : public Simulation {
     }
   }
 
+  void step() override {
+    try {
+      solver_->stepOnce(scene_.dt);
+    } catch (const SimulationError& e) {
+      throw SimulationError(scene_.file + ": " + e.what());
+    }
+  }
+
   Snapshot snapshot(int frame) const override {
     Snapshot s;
     s.frame = frame;
@@ -49,6 +77,29 @@ class SimulationOf final : public Simulation {
     s.colliders = collidersAt(scene_, D, s.time);
     solver_->describe(s);
     return s;
+  }
+
+  StateArrays stateArrays() const override {
+    StateArrays out;
+    out.dimension = D;
+    const Particles<D>& p = solver_->particles();
+    const int n = p.size();
+    out.position.resize(size_t(n) * D);
+    out.velocity.resize(size_t(n) * D);
+    out.mass.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const size_t id = p.id[i];
+      for (int a = 0; a < D; ++a) {
+        out.position[id * D + a] = p.x[i][a];
+        out.velocity[id * D + a] = p.v[i][a];
+      }
+      out.mass[id] = p.mass[i];
+    }
+    if (const auto* mpm = dynamic_cast<const MpmSolver<D>*>(solver_.get()))
+      putMpmState(*mpm, out);
+    else if (const auto* mpm_float = dynamic_cast<const MpmSolver<D, float>*>(solver_.get()))
+      putMpmState(*mpm_float, out);
+    return out;
   }
 
   double time() const override { return solver_->time(); }

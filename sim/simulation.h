@@ -2,6 +2,7 @@
 // line, the benchmarks and the tests share.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,6 +17,21 @@
 
 namespace snowsim {
 
+// The state a caller reads as arrays (the Python module): the particles in the solver's own
+// values, in creation order, and the grid's nodes, each a flat array, a vector's components and a
+// matrix's rows one after the other. Copies: nothing in them reaches back into the solver.
+struct StateArrays {
+  int dimension = 2;
+  std::vector<double> position, velocity, mass;  // N x D, N x D, N
+  // MPM only (empty otherwise): the elastic deformation gradient F_E (N x D x D) and J_P (N).
+  std::vector<double> elastic_gradient, plastic_j;
+  // MPM only (zeros and empty otherwise): the nodes along each axis, two ghost layers beyond each
+  // wall included (node i of axis a at (i - 2) h), and the mass and velocity (nodes x D) each node
+  // had at the end of the last step, x fastest.
+  std::array<int, 3> nodes{0, 0, 0};
+  std::vector<double> node_mass, node_velocity;
+};
+
 class Simulation {
  public:
   virtual ~Simulation() = default;
@@ -24,6 +40,8 @@ class Simulation {
   // stop_requested() before each step and returns false, short of t, once it says so. Throws
   // SimulationError when the state stops being finite.
   virtual bool advanceTo(double t, const std::function<bool()>& stop_requested = {}) = 0;
+  // One step of the scene's dt, or less where stability asks (SimulationError as advanceTo).
+  virtual void step() = 0;
 
   // Across MPI ranks each rank calls it at once, and rank 0 alone gets the particles.
   virtual Snapshot snapshot(int frame) const = 0;
@@ -36,6 +54,9 @@ class Simulation {
   virtual SolverStatistics statistics() const = 0;
   // The wall time of the steps so far.
   virtual double stepSeconds() const = 0;
+  // The particles and the grid as arrays; across MPI ranks, each calls it at once and rank 0
+  // alone gets the particles.
+  virtual StateArrays stateArrays() const = 0;
   // What bounds the time step now (sim/solver.h); a look over every particle.
   virtual StepLimit stepLimit() const = 0;
   // Where the steps' wall time went: the solver's stages, then "rest of the step" (the step's

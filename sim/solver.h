@@ -82,9 +82,7 @@ class Solver {
   bool advanceTo(Real target, Real max_dt, const std::function<bool()>& stop_requested = {}) {
     while (target - time_ > 1e-9 * max_dt) {
       if (stop_requested && stop_requested()) return false;
-      Real dt = std::min(max_dt, stableTimeStep());
-      chosen_.smallest = std::min(chosen_.smallest, dt);
-      chosen_.largest = std::max(chosen_.largest, dt);
+      Real dt = chooseStep(max_dt);
       // Land exactly on the target instead of leaving a sliver for one more step.
       if (target - time_ - dt < 1e-6 * dt) dt = target - time_;
       step(dt);
@@ -92,6 +90,8 @@ class Solver {
     time_ = std::max(time_, target);
     return true;
   }
+  // One step of at most max_dt, and at most what stability allows, as advanceTo takes them.
+  void stepOnce(Real max_dt) { step(chooseStep(max_dt)); }
   long steps() const { return steps_; }
   Real time() const { return time_; }
   // The smallest and largest steps advanceTo chose, before any was shortened to land on a target.
@@ -140,6 +140,13 @@ class Solver {
   virtual void checkDivergence(Real dt) const = 0;
 
  private:
+  Real chooseStep(Real max_dt) {
+    const Real dt = std::min(max_dt, stableTimeStep());
+    chosen_.smallest = std::min(chosen_.smallest, dt);
+    chosen_.largest = std::max(chosen_.largest, dt);
+    return dt;
+  }
+
   long steps_ = 0;
   Real time_ = 0;
   StepSizes chosen_;

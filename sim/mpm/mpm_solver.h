@@ -103,6 +103,11 @@ class MpmSolver final : public Solver<D> {
   const SlabDecomposition<D>& slabs() const { return ranks_.slabs(); }
   // This rank's particles, in the order it stores them (all of them on one rank).
   int ownParticles() const { return particles_.size(); }
+  // Every rank's particles in the order of their ids on rank 0, once per step that asks, none on
+  // the other ranks (this process's when not distributed): what the output sees.
+  const MpmParticles<D, T>& outputParticles() const {
+    return ranks_.output(particles_, this->steps());
+  }
 
   // Stages run alone, for tests: P2G (1 + 3), which drops a scatter no grid stage summed; the
   // grid velocities from it (4, no collisions); G2P and the particle updates (8, 7, 9, 10).
@@ -127,11 +132,6 @@ class MpmSolver final : public Solver<D> {
   // What this rank holds; under MPI the checkpoint holds each rank's in turn (RankState).
   void saveRankState(StateWriter& out) const;
   void loadRankState(StateReader& in);
-  // Every rank's particles in the order of their ids on rank 0, once per step that asks, none on
-  // the other ranks (this process's when not distributed): what the output sees.
-  const MpmParticles<D, T>& outputParticles() const {
-    return ranks_.output(particles_, this->steps());
-  }
   // f(opening, sleep) with this step's parts: the crack opening's transfers once some snow is
   // damaged (MLS only), else one velocity a node; auto-sleep's, else NoSleep.
   template <class Transfer, class Kernel, class F>

@@ -87,6 +87,7 @@ class CrackOpening {
       const bool near = t.largest(node_.damage.data()) > 0;
       near_damage_[p] = near;
       grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
+      takes_sides_[p] = false;  // until decideSides, which snow asleep (far from damage) skips
       const V gradient =
           near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
       gradient_[p] = gradient;
@@ -140,8 +141,7 @@ class CrackOpening {
     takes_sides_[p] = failed || grains_near_[p] || bits != 0;
     return takes_sides_[p];
   }
-  // Snow far from damage takes no sides, whether or not it slept through the scatter that decides.
-  bool takesSides(int p) const { return near_damage_[p] && takes_sides_[p]; }
+  bool takesSides(int p) const { return takes_sides_[p]; }
 
   // Which field of node k particle p scatters to and gathers from: the grains once it failed,
   // else the side its damage gradient lies on (side 0 where the node has no reference).

@@ -1,8 +1,9 @@
 // Auto-sleep (mpm.auto_sleep, docs/mpm.md): a particle whose surroundings rest skips its gather,
 // its F_E update and its advection. It falls asleep after `steps` steps in a row in which it and
 // every node of its stencil moved slower than `speed`, and wakes when a node of its stencil moves
-// faster or a moving collider comes within a cell. The step takes the part as a template
-// parameter: NoSleep when it is off, whose calls compile to nothing.
+// faster or a moving collider comes within a cell. With open cracks, snow near damage stays awake.
+// The step takes the part as a template parameter: NoSleep when it is off, whose calls compile to
+// nothing.
 #pragma once
 
 #include <vector>
@@ -64,6 +65,10 @@ class SleepStep {
     calm = 0;  // wakes, and moves this very step
     return false;
   }
+
+  // Particle p moves this step, and counts its calm steps afresh from the next (the crack part's
+  // snow near damage, before the scatter: see OpenCracks::keepsAwake).
+  void keepAwake(int p) { calm_[p] = 0; }
 
   // A batch of the particle pass: where its awake particles were before they moved.
   template <int most>
@@ -156,6 +161,7 @@ struct NoSleep {
   bool sleepsThrough(int, const V&) const {
     return false;
   }
+  void keepAwake(int) const {}
   template <int most>
   struct Batch {
     void remember(int, const V&) {}

@@ -87,6 +87,7 @@ class CrackOpening {
       const bool near = t.largest(node_.damage.data()) > 0;
       near_damage_[p] = near;
       grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
+      takes_sides_[p] = false;  // until decideSides, which snow asleep (far from damage) skips
       const V gradient =
           near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
       gradient_[p] = gradient;
@@ -325,8 +326,8 @@ Mat<D, T> mlsAffineMomentum(const MpmParticles<D, T>& particles, int p, T dt, T 
 template <int D, class T>
 struct OneVelocityPerNode {
   using V = Vec<D, T>;
-  template <class Schedule>
-  void findSides(Schedule&) {}
+  template <class Schedule, class KeepAwake>
+  void findSides(Schedule&, KeepAwake&&) {}
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
     plain(p, g);
@@ -340,6 +341,7 @@ struct OneVelocityPerNode {
   void gather(int p, Plain&& plain) const {
     plain(p);
   }
+  bool keepsAwake(int) const { return false; }
 };
 
 // With mpm.open_cracks once some snow is damaged: the damage field and the sides first; then near
@@ -363,10 +365,12 @@ class OpenCracks {
         isa_(vectorIsa()) {}
 
   // The damage field, then each particle's damage gradient and each node's reference direction,
-  // which decide the sides of the scatter and the gather. The stages named "crack: ..." tell the
-  // cost estimate (app/cost_estimate.cpp) that these passes ran.
-  template <class Schedule>
-  void findSides(Schedule& schedule) {
+  // which decide the sides of the scatter and the gather. Both passes take every particle, asleep
+  // or not, so that the sides see all the snow's mass and damage; keepAwake(p) for snow near
+  // damage, which may take sides and whose damage may change. The stages named "crack: ..." tell
+  // the cost estimate (app/cost_estimate.cpp) that these passes ran.
+  template <class Schedule, class KeepAwake>
+  void findSides(Schedule& schedule, KeepAwake&& keepAwake) {
     using PartialGrid = typename Schedule::PartialGrid;
     schedule.scatter(
         [&](int p, PartialGrid& g) {
@@ -383,6 +387,7 @@ class OpenCracks {
             cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
                                                   g.colour);
           });
+          if (cracks_.nearDamage(p)) keepAwake(p);
         },
         "crack: gradients");
     schedule.forScatteredNodes("crack: sides", [&](int k) { cracks_.sumReference(k); });
@@ -421,6 +426,9 @@ class OpenCracks {
       particles_.C[p] = inertia_inverse_ * B;
     });
   }
+  // Whether particle p must not fall asleep: near damage it may take sides, which a still block's
+  // kept scatter does not, and its own damage may change.
+  bool keepsAwake(int p) const { return cracks_.nearDamage(p); }
 
  private:
   T strength(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]); }

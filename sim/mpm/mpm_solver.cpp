@@ -42,10 +42,10 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   continuePlasticity(scene);
   if (params_.open_cracks) {  // also checked where a scene file is read
     if (!(material_.fracture_strain > 0) || params_.transfer != MpmTransfer::Mls ||
-        params_.integrator != MpmIntegrator::Explicit || params_.auto_sleep.enabled)
+        params_.integrator != MpmIntegrator::Explicit)
       throw InputError(scene.file +
                        ": mpm.open_cracks needs material.fracture_strain > 0, mpm.transfer "
-                       "\"mls\", mpm.integrator \"explicit\" and no mpm.auto_sleep");
+                       "\"mls\" and mpm.integrator \"explicit\"");
     cracks_ = std::make_unique<CrackOpening<D, T>>(grid_.nodeCount(), Schedule::colours,
                                                    particles_.size(), T(params_.crack_friction));
   }
@@ -107,23 +107,25 @@ void MpmSolver<D, T>::advance(Real dt) {
 template <int D, class T>
 template <class Transfer, class Kernel, class F>
 void MpmSolver<D, T>::withParts(F&& f) {
+  const auto withSleep = [&](auto& opening) {
+    if (sleeper_) {
+      SleepStep<D, T> sleep = sleepStep();
+      return f(opening, sleep);
+    }
+    NoSleep<D, T> sleep;
+    f(opening, sleep);
+  };
   if constexpr (Transfer::mls) {
     // Until some snow is stretched past J_P = 1 there is no damage, and one velocity a node does.
     const auto damaged = [](T J_P) { return J_P > 1; };
     if (cracks_ && std::any_of(particles_.J_P.begin(), particles_.J_P.end(), damaged)) {
       OpenCracks<D, T, Kernel> opening(*cracks_, particles_, material_, grid_, fields_,
                                        inertia_inverse_);
-      NoSleep<D, T> sleep;  // open cracks refuse auto-sleep
-      return f(opening, sleep);
+      return withSleep(opening);
     }
   }
   OneVelocityPerNode<D, T> opening;
-  if (sleeper_) {
-    SleepStep<D, T> sleep = sleepStep();
-    return f(opening, sleep);
-  }
-  NoSleep<D, T> sleep;
-  f(opening, sleep);
+  withSleep(opening);
 }
 
 template <int D, class T>
@@ -138,8 +140,8 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
   // stages each meet on their own; the explicit stages share the team's threads, but for the
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !ranks_.distributed(), [&] {
-    // Open cracks: the side of each node each particle takes.
-    opening.findSides(schedule_);
+    // Open cracks: the side of each node each particle takes; snow near damage stays awake.
+    opening.findSides(schedule_, [&](int p) { sleep.keepAwake(p); });
     // 1, 3: mass, momentum and forces to the grid; resting snow's momentum is dt times its
     // stress's share.
     sleep.scatter(
@@ -147,7 +149,7 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
         [&](int p, PartialGrid& g) {
           opening.scatter(p, g, dt, [&](int q, PartialGrid& h) { plainScatter(q, h, dt); });
         },
-        // Sleeping snow scatters as plain snow: open cracks refuse auto-sleep.
+        // Sleeping snow is far from damage, where it takes side 0 alone: it scatters as plain snow.
         [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); }, dt);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     ranks_.updateNodes(
@@ -196,7 +198,8 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
     if (a < count && awake[a] == p) {
       collideParticle(p);  // 9
       advect(p, dt);       // 10
-      sleep.template restOrStir<Kernel>(p, particles_.v[p], moved, a, [&] { fallAsleep(p); });
+      if (!opening.keepsAwake(p))
+        sleep.template restOrStir<Kernel>(p, particles_.v[p], moved, a, [&] { fallAsleep(p); });
       ++a;
     } else {
       ++m.asleep;

@@ -250,8 +250,6 @@ MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
     f.fail("open_cracks", "runs with mpm.transfer \"mls\" only");
   if (p.open_cracks && p.integrator != MpmIntegrator::Explicit)
     f.fail("open_cracks", "runs with mpm.integrator \"explicit\" only");
-  if (p.open_cracks && p.auto_sleep.enabled)
-    f.fail("open_cracks", "runs without mpm.auto_sleep; set mpm.auto_sleep.enabled to false");
   f.finish();
   return p;
 }

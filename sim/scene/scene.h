@@ -87,8 +87,8 @@ struct MpmParams {
   double wall_friction = 0.2;
   AutoSleep auto_sleep;
   // Two velocities a node across damaged snow and failed snow as loose grains (sim/mpm/
-  // crack_opening.h): needs material.fracture_strain, the MLS transfer, the explicit integrator,
-  // no auto-sleep and one process.
+  // crack_opening.h): needs material.fracture_strain, the MLS transfer, the explicit integrator
+  // and one process; with auto-sleep, snow near damage stays awake.
   bool open_cracks = false;
   double crack_friction = 0.6;  // Coulomb coefficient where the fields of open_cracks touch
 };

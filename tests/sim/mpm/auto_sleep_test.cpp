@@ -288,6 +288,38 @@ TEST(AutoSleep, StillBlocksGiveTheSameResultsOnOneAndTwoThreadsAndAfterAResume) 
   EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, resumed.statistics().auto_sleep.asleep_steps);
 }
 
+// With open cracks (mpm.open_cracks): the 3D pile, and a ball thrown down onto it that its
+// landing stretches past J_P = 1 (fracture strain 0.05).
+Json crackedPileAndBall3d() {
+  Json j = pileAndBall3d();
+  j["material"] = {{"fracture_strain", 0.05}};
+  j["mpm"]["open_cracks"] = true;
+  j["bodies"][1]["velocity"] = {0, -3, 0};
+  return j;
+}
+
+// In 3D with open cracks, the pile's blocks asleep keep their scatter while the damaged ball stays
+// awake: no sleeping particle is damaged, and one and two threads agree bit for bit.
+THREADED_TEST(AutoSleep, WithOpenCracksStillBlocksKeepTheirScatterOnAnyThreadCount) {
+  const Json j = crackedPileAndBall3d();
+  auto one = makeSolver<3, float>(j, 1), two = makeSolver<3, float>(j, 2);
+  ASSERT_GT(one.particles().size(), 2048);
+  runUntil(one, 0.15);
+  runUntil(two, 0.15);
+  int damaged = 0, damaged_asleep = 0;
+  for (int i = 0; i < one.particles().size(); ++i) {
+    damaged += one.plasticJ()[i] > 1;
+    damaged_asleep += one.asleep(i) && one.plasticJ()[i] > 1;
+  }
+  ASSERT_GT(damaged, 0) << "the crack's fields must take part";
+  EXPECT_EQ(damaged_asleep, 0);
+  ASSERT_GT(one.statistics().auto_sleep.asleep_now, 0);
+  ASSERT_GT(one.keptScatters(), 0);
+  EXPECT_TRUE(one.particles().positionsById() == two.particles().positionsById());
+  EXPECT_EQ(one.keptScatters(), two.keptScatters());
+  EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
+}
+
 TEST(AutoSleep, SceneFieldsAreCheckedAndWrittenBack) {
   const std::string scene = SNOWSIM_SOURCE_DIR "/scenes/snowball_drop.json";
   const std::vector<std::pair<std::string, std::string>> bad = {

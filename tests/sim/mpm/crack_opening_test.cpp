@@ -11,6 +11,7 @@
 #include "sim/mpm/mpm_solver.h"
 #include "sim/scene/json_fields.h"
 #include "sim/scene/sampling.h"
+#include "tests/support/threaded_test.h"
 
 using namespace snowsim;
 
@@ -27,14 +28,14 @@ void runFor(Solver& s, Real duration) {
 
 // A bar 0.4 m long and 0.1 m tall whose halves slide past each other at 0.5 m/s each, the upper
 // one forwards, without gravity, along a band of failed snow one cell thick at y = 0.1 (J_P = 2,
-// past the fracture strain 0.3).
+// past the fracture strain 0.3); with resting_box, a box of snow at rest 0.1 m above it.
 struct ShearedBar {
   static constexpr Real middle = 0.1, speed = 0.5;
   Scene scene;
   Particles<2> particles;
   std::vector<Real> y0;  // each particle's height at the start, by id
 
-  explicit ShearedBar(bool open_cracks) {
+  explicit ShearedBar(bool open_cracks, bool resting_box = false, bool auto_sleep = false) {
     Json j = Json::parse(R"({
       "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
       "grid": {"cells": [80, 20], "cell_size": 0.01},
@@ -42,15 +43,20 @@ struct ShearedBar {
       "material": {"fracture_strain": 0.3},
       "bodies": [{"shape": "box", "center": [0.4, 0.1], "size": [0.4, 0.1]}]
     })");
-    j["mpm"] = {{"open_cracks", open_cracks}};
+    j["mpm"] = {{"open_cracks", open_cracks}, {"auto_sleep", {{"enabled", auto_sleep}}}};
+    if (resting_box) {
+      j["grid"]["cells"] = {80, 40};
+      j["bodies"].push_back({{"shape", "box"}, {"center", {0.4, 0.3}}, {"size", {0.4, 0.1}}});
+    }
     scene = parseScene(j, "bar.json");
     particles = sampleBodies<2>(scene);
     auto start = std::make_shared<Snapshot>();  // J_P as a points body's file gives it
     for (int p = 0; p < particles.size(); ++p) {
       const Real y = particles.x[p][1];
+      y0.push_back(y);
+      if (particles.body[p] != 0) continue;
       particles.v[p] = Vec<2>(y < middle ? -speed : speed, 0);
       start->plastic_j.push_back(std::abs(y - middle) < 0.005 ? 2.0f : 1.0f);
-      y0.push_back(y);
     }
     scene.bodies[0].points = start;
   }
@@ -62,7 +68,7 @@ struct ShearedBar {
     int count[2] = {0, 0};
     for (int i = 0; i < p.size(); ++i) {
       const Real y = y0[p.id[i]];
-      if (std::abs(y - middle) < 0.005) continue;
+      if (p.body[i] != 0 || std::abs(y - middle) < 0.005) continue;
       const int half = y < middle ? 0 : 1;
       sum[half] += p.v[i][0];
       ++count[half];
@@ -153,6 +159,44 @@ TEST(CrackOpening, CollidingBallsThatBreakKeepTheirMomentum) {
   EXPECT_LT((momentum() - before).norm(), 1e-12 * mass * 3) << momentum().transpose();
 }
 
+// With auto-sleep, the box at rest falls asleep (within 30 steps) while the bar's halves slide on,
+// awake beside their failed band.
+TEST(CrackOpening, RestingSnowSleepsWhileTheBrokenBarSlides) {
+  ShearedBar asleep_bar(true, true, true), awake_bar(true, true, false);
+  MpmSolver<2> asleep(asleep_bar.scene, asleep_bar.particles, 1);
+  MpmSolver<2> awake(awake_bar.scene, awake_bar.particles, 1);
+  runFor(asleep, 0.02);
+  runFor(awake, 0.02);
+  int box = 0, box_asleep = 0, bar_asleep = 0;
+  for (int i = 0; i < asleep.particles().size(); ++i) {
+    const bool b = asleep.particles().body[i] == 1;
+    box += b;
+    (b ? box_asleep : bar_asleep) += asleep.asleep(i);
+  }
+  ASSERT_GT(box, 0);
+  EXPECT_EQ(box_asleep, box);
+  EXPECT_EQ(bar_asleep, 0);
+  EXPECT_EQ(asleep.statistics().auto_sleep.asleep_now, box);
+  // The bar as without sleep, bit for bit: the box sleeps far from damage, and the crack's passes
+  // still take it, so every node's damage, reference and sides are the awake run's.
+  EXPECT_TRUE(asleep.particles().positionsById() == awake.particles().positionsById());
+  const auto [below, above] = asleep_bar.halvesSpeeds(asleep);
+  EXPECT_NEAR(below, -ShearedBar::speed, 0.01);
+  EXPECT_NEAR(above, ShearedBar::speed, 0.01);
+}
+
+// Two threads decide which snow sleeps, and the sides, as one does.
+THREADED_TEST(CrackOpening, WithAutoSleepSameResultsOnOneAndTwoThreads) {
+  ShearedBar bar(true, true, true);
+  MpmSolver<2> one(bar.scene, bar.particles, 1), two(bar.scene, bar.particles, 2);
+  ASSERT_GT(one.particles().size(), 2048);
+  runFor(one, 0.02);
+  runFor(two, 0.02);
+  ASSERT_GT(one.statistics().auto_sleep.asleep_now, 0);
+  EXPECT_TRUE(one.particles().positionsById() == two.particles().positionsById());
+  EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
+}
+
 TEST(CrackOpening, BadSettingsNameTheField) {
   Json j = Json::parse(R"({
     "name": "t", "dimension": 2, "solver": "mpm",
@@ -174,9 +218,13 @@ TEST(CrackOpening, BadSettingsNameTheField) {
             std::string::npos);
   EXPECT_NE(problem({{"open_cracks", true}, {"transfer", "apic"}}, 0.3).find("mpm.open_cracks"),
             std::string::npos);
-  EXPECT_NE(problem({{"open_cracks", true}, {"auto_sleep", {{"enabled", true}}}}, 0.3)
-                .find("mpm.auto_sleep.enabled"),
-            std::string::npos);
   EXPECT_NE(problem({{"open_cracks", true}}, 0.3).find("one process"), std::string::npos);
   EXPECT_NE(problem(Json::object(), -1).find("material.fracture_strain"), std::string::npos);
+  // Auto-sleep runs with open cracks: the scene and the solver take the pair.
+  Json both = j;
+  both["mpm"] = {{"open_cracks", true}, {"auto_sleep", {{"enabled", true}}}};
+  both["material"] = {{"fracture_strain", 0.3}};
+  const Scene scene = parseScene(both, "t.json");
+  EXPECT_TRUE(scene.mpm.open_cracks && scene.mpm.auto_sleep.enabled);
+  EXPECT_NO_THROW(MpmSolver<2>(scene, sampleBodies<2>(scene), 1));
 }

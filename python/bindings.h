@@ -1,5 +1,5 @@
-// What the module's files share: the Python objects over a scene and a simulation, and the
-// functions that add each part of the module.
+// What the module's files share: the Python objects over a scene, a simulation and a snapshot, and
+// the functions that add each part of the module.
 #pragma once
 
 #include <memory>
@@ -32,7 +32,19 @@ struct PySimulation {
   Simulation& live(const char* what);
 };
 
+// A frame's state, copied from a simulation at one time, with what a render of it needs: the
+// scene and the simulation's first frame, which the camera frames as a run's does.
+struct PySnapshot {
+  Scene scene;
+  Snapshot first;
+  Snapshot snapshot;
+};
+
+// The simulation's state now, as a run's frame at this time holds it; ValueError as live's.
+Snapshot takeSnapshot(PySimulation& self, const char* what);
+
 void bindSimulation(py::module_& module);
+void bindSnapshot(py::module_& module);
 void bindRender(py::module_& module);
 
 }  // namespace snowsim

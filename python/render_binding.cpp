@@ -53,7 +53,7 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
 }
 
 // The settings `snowsim run` would draw this scene's frames with, given these options.
-RenderSettings renderSettings(const PySimulation& self, int width, int height,
+RenderSettings renderSettings(const Scene& scene, const Snapshot& first, int width, int height,
                               const py::kwargs& options) {
   CLI::App app("snowsim.render");
   RenderOptions parsed;
@@ -67,8 +67,8 @@ RenderSettings renderSettings(const PySimulation& self, int width, int height,
   } catch (const CLI::ParseError& e) {
     throw py::value_error(std::string("render: ") + e.what());
   }
-  RenderSettings settings = parsed.settings(renderSettingsFromScene(self.scene.render));
-  fitToScene(settings, self.scene, self.first);
+  RenderSettings settings = parsed.settings(renderSettingsFromScene(scene.render));
+  fitToScene(settings, scene, first);
   return settings;
 }
 
@@ -78,6 +78,17 @@ py::array_t<std::uint8_t> rgbOf(const Image& image) {
   for (size_t p = 0; p < size_t(image.width) * image.height; ++p)
     for (int c = 0; c < 3; ++c) rgb[3 * p + c] = image.rgba[4 * p + c];
   return out;
+}
+
+// The snapshot drawn with the GIL released.
+py::array_t<std::uint8_t> rendered(const RenderSettings& settings, const Snapshot& snapshot) {
+  Image image;
+  {
+    py::gil_scoped_release released;
+    Renderer renderer(settings);
+    image = renderer.render(snapshot);
+  }
+  return rgbOf(image);
 }
 
 // An image from a (H, W, 3) or (H, W, 4) uint8 array, or from a PNG file's path.
@@ -108,28 +119,28 @@ Image imageOf(const py::handle& source, const char* what) {
 }  // namespace
 
 void bindRender(py::module_& m) {
+  const char* render_doc =
+      "The simulation's particles now, or a snapshot's, drawn as `snowsim run` draws its frames: "
+      "a uint8 array (height, width, 3). Keyword arguments are the run's image options, named "
+      "without the dashes: color_by=\"plastic\", look=\"figure\", camera_preset=..., "
+      "camera_eye=(x, y, z), camera_target=..., fov=35, background=(r, g, b), "
+      "color_range=(low, high), sphere_radius=..., no_grid=True, density_cells=True, "
+      "shadows=False, occlusion=False. The scene's render object gives the rest; the camera "
+      "frames the first frame's snow.";
   m.def(
       "render",
       [](PySimulation& self, int width, int height, const py::kwargs& options) {
-        const Simulation& simulation = self.live("render");
-        const RenderSettings settings = renderSettings(self, width, height, options);
-        const Snapshot snapshot =
-            simulation.snapshot(static_cast<int>(std::lround(simulation.time() * self.scene.fps)));
-        Image image;
-        {
-          py::gil_scoped_release released;
-          Renderer renderer(settings);
-          image = renderer.render(snapshot);
-        }
-        return rgbOf(image);
+        const Snapshot snapshot = takeSnapshot(self, "render");
+        return rendered(renderSettings(self.scene, self.first, width, height, options), snapshot);
       },
-      py::arg("simulation"), py::arg("width") = 1280, py::arg("height") = 720,
-      "The simulation's particles now, drawn as `snowsim run` draws its frames: a uint8 array "
-      "(height, width, 3). Keyword arguments are the run's image options, named without the "
-      "dashes: color_by=\"plastic\", look=\"figure\", camera_preset=..., camera_eye=(x, y, z), "
-      "camera_target=..., fov=35, background=(r, g, b), color_range=(low, high), "
-      "sphere_radius=..., no_grid=True, density_cells=True, shadows=False, occlusion=False. "
-      "The scene's render object gives the rest; the camera frames the first frame's snow.");
+      py::arg("simulation"), py::arg("width") = 1280, py::arg("height") = 720, render_doc);
+  m.def(
+      "render",
+      [](const PySnapshot& self, int width, int height, const py::kwargs& options) {
+        return rendered(renderSettings(self.scene, self.first, width, height, options),
+                        self.snapshot);
+      },
+      py::arg("snapshot"), py::arg("width") = 1280, py::arg("height") = 720, render_doc);
   m.def(
       "write_png",
       [](const std::string& path, const py::handle& image) {

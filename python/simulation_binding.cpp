@@ -195,6 +195,12 @@ void bindSimulation(py::module_& m) {
           "MPM: each node's velocity at the end of the last step, float64 (nx, ny[, nz], D): a "
           "copy")
       .def(
+          "snapshot",
+          [](Self& self) {
+            return PySnapshot{self.scene, self.first, takeSnapshot(self, "snapshot")};
+          },
+          "The state now as a snowsim.Snapshot: a copy, which later steps leave as it is")
+      .def(
           "save",
           [](Self& self, const std::string& path) {
             const Simulation& simulation = self.live("save");

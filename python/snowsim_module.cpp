@@ -132,6 +132,7 @@ PYBIND11_MODULE(snowsim, m) {
         "applied in order; quality: \"draft\", \"figure\" or \"reference\" (--quality); scale: "
         "--scale. Raises ValueError naming the file and field.");
 
+  bindSnapshot(m);  // first: Simulation.snapshot's signature names it
   bindSimulation(m);
   bindRender(m);
 }

@@ -332,10 +332,9 @@ void fillBodies(const Scene& scene, Sink& sink) {
     const int index = static_cast<int>(b);
     const double spacing = particleSpacing(scene, body);
     if (body.shape == BodyShape::Points) {
-      if constexpr (Sink::counts_only)
-        sink.addCount(body.points->size(), index);
-      else
+      if constexpr (!Sink::counts_only)
         addPoints(*body.points, particleMass<D>(body, spacing), index, sink.particles);
+      sink.per_body[b] += static_cast<long>(body.points->size());
       continue;
     }
     if (body.shape == BodyShape::Mesh) {

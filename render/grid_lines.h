@@ -25,12 +25,12 @@ struct GridCanvas {
 
 // The grid as a viewer can resolve it: the cell lines on the back plane, and in 3D both families
 // of the floor's lines, each drawn only where the lines of its level lie at least kLineFadePixels
-// apart on screen (on the floor: those of both families) (levels 1, 5, 10, 50, ... cells: every 5th line stays when single cells are too
-// small, every 10th when those are, ...) and faded just above that, so no cell count or image
-// size gives moire. The walls, the ground and (3D) the floor's outline are always drawn. Appends
-// line segments (two vertices each): those on the back plane (2D: all) to `back`, those on the
-// floor y = 0 (3D) to `floor`. Cell lines are a third of the way from the canvas to the wall's
-// colour, light ink on a dark background and dark ink on a light one.
+// apart on screen (on the floor: those of both families) (levels 1, 5, 10, 50, ... cells: every 5th
+// line stays when single cells are too small, every 10th when those are, ...) and faded just above
+// that, so no cell count or image size gives moire. The walls, the ground and (3D) the floor's
+// outline are always drawn. Appends line segments (two vertices each): those on the back plane (2D:
+// all) to `back`, those on the floor y = 0 (3D) to `floor`. Cell lines are a third of the way from
+// the canvas to the wall's colour, light ink on a dark background and dark ink on a light one.
 void gridLines(const Snapshot& s, glm::vec3 extent, const View& view, int width, int height,
                const GridCanvas& canvas, std::vector<float>& back, std::vector<float>& floor);
 

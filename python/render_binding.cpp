@@ -24,9 +24,14 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
                   std::vector<std::string>& args) {
   std::string name = "--" + key;
   std::replace(name.begin(), name.end(), '_', '-');
-  if (py::isinstance<py::bool_>(value)) {
+  const CLI::Option* option = app.get_option_no_throw(name);
+  if (py::isinstance<py::bool_>(value) ||
+      py::isinstance(value, py::module_::import("numpy").attr("bool_"))) {
     const bool on = value.cast<bool>();
-    if (app.get_option_no_throw(name)) {
+    if (option && option->get_items_expected_min() > 0)
+      throw py::type_error("render: " + key + ": " + py::repr(value).cast<std::string>() +
+                           " is not a value; it takes " + option->get_type_name());
+    if (option) {
       if (on) args.push_back(name);
     } else if (app.get_option_no_throw("--no-" + name.substr(2))) {
       if (!on) args.push_back("--no-" + name.substr(2));
@@ -37,9 +42,17 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
   }
   args.push_back(name);
   const auto text = [&](const py::handle& item) {
-    if (py::isinstance<py::float_>(item) && !std::isfinite(item.cast<double>()))
-      throw py::value_error("render: " + key + ": " + py::repr(item).cast<std::string>() +
-                            " is not a finite number");
+    // Any number, numpy's among them (float32 is no Python float), as the command line's text.
+    const py::module_ numbers = py::module_::import("numbers");
+    if (py::isinstance(item, numbers.attr("Integral")) && !py::isinstance<py::bool_>(item))
+      return py::str(py::int_(py::reinterpret_borrow<py::object>(item))).cast<std::string>();
+    if (py::isinstance(item, numbers.attr("Real"))) {
+      const double number = py::float_(py::reinterpret_borrow<py::object>(item)).cast<double>();
+      if (!std::isfinite(number))
+        throw py::value_error("render: " + key + ": " + py::repr(item).cast<std::string>() +
+                              " is not a finite number");
+      return py::str(py::float_(number)).cast<std::string>();
+    }
     return py::str(item).cast<std::string>();
   };
   if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value) ||

@@ -234,7 +234,10 @@ void bindSimulation(py::module_& m) {
       .def_property_readonly("closed", [](const Self& self) { return !self.simulation; })
       .def("__enter__", [](Self& self) -> Self& { return self; })
       .def("__exit__", [](Self& self, const py::args&) {
-        if (self.simulation && !self.busy) self.simulation.reset();
+        // As close(): a simulation another thread is stepping raises rather than stay open unsaid.
+        if (!self.simulation) return;
+        self.live("leaving the with block");
+        self.simulation.reset();
       });
 }
 

@@ -133,6 +133,13 @@ def test_bad_input_raises_naming_the_field(snowsim, tmp_path):
         snowsim.render(simulation, 64, 48, camera_wobble=1)
     with pytest.raises(ValueError, match="--width"):
         snowsim.render(simulation, 4, 48)
+    with pytest.raises(ValueError, match="sphere_radius: .*nan.* is not a finite number"):
+        snowsim.render(simulation, 64, 48, sphere_radius=np.float32("nan"))
+    with pytest.raises(ValueError, match="camera_eye: .*inf.* is not a finite number"):
+        snowsim.render(simulation, 64, 48, camera_eye=np.array([0.1, np.inf, 0.2], np.float32))
+    with pytest.raises(TypeError, match="sphere_radius: True is not a value"):
+        snowsim.render(simulation, 64, 48, sphere_radius=True)
+    assert snowsim.render(simulation, 64, 48, sphere_radius=np.float32(0.01)).shape == (48, 64, 3)
     with pytest.raises(ValueError, match=r"shape is \(height, width, 3 or 4\)"):
         snowsim.write_png(str(tmp_path / "x.png"), np.zeros((4, 4), np.uint8))
 

@@ -33,6 +33,7 @@
 #include "sim/geometry/snow_surface.h"
 #include "sim/io/checkpoint.h"
 #include "sim/io/files.h"
+#include "sim/io/obj.h"
 #include "sim/io/ply.h"
 #include "sim/io/vdb.h"
 #include "sim/scene/json_fields.h"
@@ -57,8 +58,9 @@ struct RunOptions {
   int threads = 0;             // the solver's threads; 0: the OpenMP default
   std::string precision;       // double | float: mpm.precision; empty: the scene's
   bool ply = true;
-  bool vdb = false;        // --vdb: frame_NNNNN.vdb density and velocity volumes (3D)
-  bool surface = false;    // --surface: surface_NNNNN.ply meshes, and the VDB's surface grid (3D)
+  bool vdb = false;      // --vdb: frame_NNNNN.vdb density and velocity volumes (3D)
+  bool surface = false;  // --surface: surface_NNNNN meshes, and the VDB's surface grid (3D)
+  std::string surface_format = "ply";  // --surface-format: ply | obj
   bool z_up = false;       // --z-up: PLY and VDB turned to z up, (x, y, z) -> (x, -z, y)
   bool overwrite = false;  // remove an earlier run's files from `out` first
   RenderOptions render;
@@ -406,6 +408,9 @@ RunPlan validatedRun(const RunOptions& options, const SavedRun* saved, RankExcha
     throw InputError("--vdb: " + scene.file + " runs in 2D; VDB volumes are written for 3D runs");
   if (options.surface && scene.dimension != 3)
     throw InputError("--surface: " + scene.file + " runs in 2D; surfaces are built for 3D runs");
+  if (options.surface_format != "ply" && !options.surface)
+    throw InputError("--surface-format " + options.surface_format +
+                     ": no mesh is written without --surface; add it");
   plan.surface = plan.render.surface;
   plan.surface.threads = options.threads;
   plan.build_surface =
@@ -482,11 +487,16 @@ FrameSinks frameSinks(const RunOptions& options, const RunPlan& plan, StageClock
     sinks.push_back(
         std::make_unique<FileSink>(options.out, "vdb", writeVdb, plan.up, "write VDB", clock));
   if (options.surface) {
-    auto write = [](const std::string& path, const Snapshot& s, UpAxis up) {
+    const bool obj = options.surface_format == "obj";
+    FileSink::Writer write = [](const std::string& path, const Snapshot& s, UpAxis up) {
       writeSurfacePly(path, *s.surface, s, up);
     };
-    sinks.push_back(std::make_unique<FileSink>(options.out, "ply", write, plan.up, "write surface",
-                                               clock, "surface_"));
+    if (obj)
+      write = [](const std::string& path, const Snapshot& s, UpAxis up) {
+        writeSurfaceObj(path, *s.surface, s, up);
+      };
+    sinks.push_back(std::make_unique<FileSink>(options.out, obj ? "obj" : "ply", write, plan.up,
+                                               "write surface", clock, "surface_"));
   }
   if (options.render.png || options.render.mp4) {
     auto render_sink = std::make_unique<RenderSink>(
@@ -932,6 +942,10 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
                 "Also write surface_NNNNN.ply per frame (3D runs): the snow's surface mesh, "
                 "vertices with normals and triangles (settings: --surface-*), and with --vdb a "
                 "level set grid `surface` in each VDB");
+  cmd->add_option("--surface-format", options->surface_format,
+                  "ply | obj: the file format of --surface's meshes (binary PLY, the default, "
+                  "which the Blender loader reads; or Wavefront OBJ text, about 4 times larger)")
+      ->check(CLI::IsMember({"ply", "obj"}));
   cmd->add_flag("--z-up", options->z_up,
                 "Write PLY and VDB frames with z up, as Blender's z-up world expects (Houdini is y "
                 "up, as snowsim): "

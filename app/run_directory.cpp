@@ -61,7 +61,7 @@ std::string describe(const std::vector<fs::path>& files) {
     if (isTemporary(file))
       ++temporaries;
     else if (name.rfind("surface_", 0) == 0)
-      ++frames["surface PLY"];
+      ++frames[file.extension() == ".obj" ? "surface OBJ" : "surface PLY"];
     else if (name.rfind("frame_", 0) == 0)
       ++frames[file.extension() == ".png" ? "PNG" : file.extension() == ".vdb" ? "VDB" : "PLY"];
     else
@@ -102,7 +102,8 @@ void removeFiles(const std::vector<fs::path>& files) {
 }  // namespace
 
 std::vector<fs::path> earlierRunFiles(const fs::path& dir, const std::string& video) {
-  static const std::regex frame(R"((frame_[0-9]{5,}\.(ply|png|vdb))|(surface_[0-9]{5,}\.ply))");
+  static const std::regex frame(
+      R"((frame_[0-9]{5,}\.(ply|png|vdb))|(surface_[0-9]{5,}\.(ply|obj)))");
   const std::string recorded = recordedVideo(dir);
   return filesIn(dir, [&](const std::string& name) {
     return std::regex_match(name, frame) || name == "run.json" || name == "colliders.json" ||

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -650,6 +651,55 @@ TEST(Cli, SurfaceLookDrawsARunAndItsSavedFrames) {
   EXPECT_EQ(coarse.code, 2);
   EXPECT_NE(coarse.output.find("--surface-voxel 0 is out of range"), std::string::npos)
       << coarse.output;
+}
+
+// --surface-format obj writes the same mesh as the PLY, as OBJ text: as many vertices, normals and
+// triangles, the same first vertex, indices counted from 1.
+TEST(Cli, SurfaceMeshesAsObjHoldThePlysMesh) {
+  const fs::path ply = freshDir("surface_ply"), obj = freshDir("surface_obj");
+  const std::string run = "run " + scene("study_smash_3d") +
+                          " --set time.duration=0.02 --no-png --no-mp4 --no-ply --surface -o ";
+  ASSERT_EQ(runSnowsim(run + ply.string()).code, 0);
+  const Result r = runSnowsim(run + obj.string() + " --surface-format obj");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(obj / "surface_00001.ply"));
+  std::ifstream header(ply / "surface_00001.ply", std::ios::binary);
+  long vertices = 0, faces = 0;
+  for (std::string line; std::getline(header, line) && line != "end_header";) {
+    std::sscanf(line.c_str(), "element vertex %ld", &vertices);
+    std::sscanf(line.c_str(), "element face %ld", &faces);
+  }
+  float first_ply[3];
+  header.read(reinterpret_cast<char*>(first_ply), sizeof first_ply);
+  ASSERT_GT(vertices, 100);
+  std::ifstream text(obj / "surface_00001.obj");
+  long v = 0, vn = 0, f = 0, largest_index = 0;
+  float first_obj[3] = {0, 0, 0};
+  for (std::string line; std::getline(text, line);) {
+    if (line.rfind("v ", 0) == 0 && v++ == 0)
+      std::sscanf(line.c_str(), "v %f %f %f", &first_obj[0], &first_obj[1], &first_obj[2]);
+    vn += line.rfind("vn ", 0) == 0;
+    if (line.rfind("f ", 0) == 0) {
+      ++f;
+      long a, b, c;
+      ASSERT_EQ(std::sscanf(line.c_str(), "f %ld//%*d %ld//%*d %ld//%*d", &a, &b, &c), 3) << line;
+      EXPECT_GE(std::min({a, b, c}), 1);
+      largest_index = std::max({largest_index, a, b, c});
+    }
+  }
+  EXPECT_EQ(v, vertices);
+  EXPECT_EQ(vn, vertices);
+  EXPECT_EQ(f, faces);
+  EXPECT_EQ(largest_index, vertices);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(first_obj[k], first_ply[k]);
+
+  const Result alone = runSnowsim("run " + scene("study_smash_3d") + " -o " +
+                                  freshDir("surface_obj_alone").string() +
+                                  " --surface-format obj --no-png --no-mp4");
+  EXPECT_EQ(alone.code, 2);
+  EXPECT_NE(alone.output.find("--surface-format obj: no mesh is written without --surface"),
+            std::string::npos)
+      << alone.output;
 }
 
 // Every file of a directory, by name, with its bytes: what a refused command must leave as it was.

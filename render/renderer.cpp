@@ -258,7 +258,7 @@ void setTexture(GLuint program, const char* name, int unit, GLuint texture) {
 // The programs for each pass: forward (2D), G-buffer and shadow map (3D), and the screen passes.
 struct Programs {
   GLuint sphere_forward, point_forward, mesh_forward, line;
-  GLuint sphere_gbuffer, point_gbuffer, mesh_gbuffer;
+  GLuint sphere_gbuffer, point_gbuffer, mesh_gbuffer, snow_gbuffer;
   GLuint point_depth, mesh_depth;  // the key light's shadow map
   GLuint occlusion, compose;
   GLuint volume;  // --look volume's ray march
@@ -272,6 +272,7 @@ struct Programs {
     sphere_gbuffer = link({sphere_vert}, {gbuffer_glsl, sphere_frag});
     point_gbuffer = link({points_vert}, {gbuffer_glsl, points_frag});
     mesh_gbuffer = link({mesh_vert}, {gbuffer_glsl, mesh_frag});
+    snow_gbuffer = link({mesh_vert}, {gbuffer_glsl, snow_frag});
     point_depth = link({points_vert}, {point_depth_frag});
     mesh_depth = link({mesh_vert}, {depth_only_frag});
     occlusion = link({fullscreen_vert}, {surface_glsl, occlusion_frag});
@@ -738,7 +739,9 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   g.drawLines(camera, 0.5f, g.lines, GL_LINES);
   g.drawLines(camera, 1.f, g.floor_lines, GL_LINES);
   glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  g.drawSnow(p.mesh_gbuffer, camera);
+  glUseProgram(p.snow_gbuffer);
+  setUniform(p.snow_gbuffer, "grain", 2 * radius);
+  g.drawSnow(p.snow_gbuffer, camera);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);
   glDisable(GL_DEPTH_TEST);

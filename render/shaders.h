@@ -13,6 +13,7 @@ extern const char* const forward_glsl;
 extern const char* const gbuffer_glsl;
 extern const char* const mesh_vert;
 extern const char* const mesh_frag;
+extern const char* const snow_frag;
 extern const char* const depth_only_frag;
 extern const char* const point_depth_frag;
 extern const char* const fullscreen_vert;

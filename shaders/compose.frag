@@ -1,6 +1,7 @@
 // The deferred lighting pass: the key light with its shadow map (4 filtered taps), the sky fill
 // (brighter facing up) darkened by the ambient occlusion, a little specular; the background and
-// unlit lines as they are. (Compiled after "#version" and surface.glsl.)
+// unlit lines as they are. Alpha of the albedo: 1 lit, kSnowAlpha (gbuffer.glsl) the surface
+// look's snow, below 0.75 unlit. (Compiled after "#version" and surface.glsl.)
 uniform sampler2D albedo_texture;
 uniform sampler2D occlusion_texture;
 uniform sampler2DShadow shadow_texture;
@@ -52,11 +53,17 @@ void main() {
   }
   vec3 position = viewPosition(p);
   vec3 normal = surfaceNormal(p, position);
-  float facing = max(dot(normal, key_direction), 0.0);
+  float cosine = dot(normal, key_direction);
+  float facing = max(cosine, 0.0);
   float lit = use_shadows && facing > 0.0 ? keyVisibility(position + normal_offset * normal) : 1.0;
+  // The surface look's snow scatters light under its surface: the key light wraps a little past
+  // the terminator (wrapped Lambert), which keeps its bent grains from turning black there.
+  const float kWrap = 0.35;
+  bool snow = albedo.a < 0.95;
+  float diffuse = snow ? max((cosine + kWrap) / (1.0 + kWrap), 0.0) : facing;
   float ao = use_occlusion ? ambientOcclusion() : 1.0;
   vec3 fill = mix(bounce_color, sky_color, 0.5 + 0.5 * dot(normal, up_direction)) * ao;
   vec3 halfway = normalize(key_direction + normalize(-position));
   float specular = 0.15 * pow(max(dot(normal, halfway), 0.0), 32.0) * facing * lit;
-  fragment = vec4(albedo.rgb * (key_color * facing * lit + fill) + vec3(specular), 1.0);
+  fragment = vec4(albedo.rgb * (key_color * diffuse * lit + fill) + vec3(specular), 1.0);
 }

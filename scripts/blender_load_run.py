@@ -36,7 +36,8 @@ With --vdb, the run's frame_NNNNN.vdb files (snowsim run --vdb) become a volume 
 
 A run made with --surface has surface_NNNNN.ply files: without --bake they become one mesh
 object, `snowsim_surface`, shaded smooth, turned the same way, whose vertices and triangles the
-same handler swaps in from each frame's file (--bake leaves them out).
+same handler swaps in from each frame's file; with --bake, a mesh object per frame,
+`snowsim_surface_NNNNN`, under an empty `snowsim_surface`, keyframed as the particles are.
 
 The run's colliders (colliders.json: boxes, spheres, planes, drums and meshes, posed at every
 frame) become objects under an empty, `snowsim_colliders`, turned the same way, keyframed frame by
@@ -82,7 +83,8 @@ HANDLER_NAME = "snowsim_frame_change"
 # The command line's options after the run directory.
 OPTIONS = {
     "--vdb": "the run's VDB frames as a volume object",
-    "--bake": "every frame's particles kept in the file: a saved file plays with no script",
+    "--bake": "every frame's particles and surface kept in the file: a saved file plays with "
+              "no script",
 }
 # The text block of a loaded file: this script, set to register the handler only, which Blender
 # runs when it opens the file if auto-run of Python scripts is allowed.
@@ -293,18 +295,28 @@ def load_particles(run_dir, scene, files, up):
 def bake_particles(run_dir, scene, files, up):
     """--bake: each frame's particles as a mesh object under the empty `snowsim_particles`,
     visible from its frame until the next one (keyframed), so the file plays without a script."""
-    parent = run_object("snowsim_particles", run_dir, scene, "EMPTY")
+
+    def fill(obj, path):
+        show_frame(obj, path)
+        obj.modifiers.new("snowsim_points", "NODES").node_group = points_node_group()
+
+    return bake_sequence("snowsim_particles", run_dir, scene, files, up, fill)
+
+
+def bake_sequence(name, run_dir, scene, files, up, fill):
+    """Each of `files` as a mesh object NAME_NNNNN under the empty NAME, filled by fill(obj, path)
+    and visible from its frame until the next one (keyframed hide_viewport and hide_render)."""
+    parent = run_object(name, run_dir, scene, "EMPTY")
     turn_to_z_up(parent, up)
     remove_objects(list(parent.children))
     frames = list(files)
     for i, (frame, path) in enumerate(files.items()):
-        name = "snowsim_particles_%05d" % frame
-        obj = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        frame_name = "%s_%05d" % (name, frame)
+        obj = bpy.data.objects.new(frame_name, bpy.data.meshes.new(frame_name))
         scene.collection.objects.link(obj)
         obj.parent = parent
         obj["snowsim_frame"] = frame
-        show_frame(obj, path)
-        obj.modifiers.new("snowsim_points", "NODES").node_group = points_node_group()
+        fill(obj, path)
         keys = [(frame, False)]
         if frame != frames[0]:
             keys.insert(0, (frames[0], True))
@@ -622,10 +634,24 @@ def hidden_points(scene, eye, points, frame):
     hidden = 0
     for p in points:
         # Stopping short of the point: snow on the ground touches it.
-        towards = p - eye
-        hit = scene.ray_cast(depsgraph, eye, towards.normalized(), distance=towards.length * 0.98)
-        hidden += hit[0]
+        hidden += blocker(scene, depsgraph, eye, p, 0.98) is not None
     return hidden
+
+
+def blocker(scene, depsgraph, eye, point, reach=1.0):
+    """The first object other than the snow's surface between the eye and `reach` of the way to
+    the point, else None: the snow's own surface does not hide the snow."""
+    start, towards = eye, point - eye
+    end = eye + towards * reach
+    direction = towards.normalized()
+    while True:
+        left = (end - start).length
+        hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, start, direction, distance=left)
+        if not hit:
+            return None
+        if not obj.name.startswith("snowsim_surface"):
+            return obj
+        start = location + direction * 1e-5
 
 
 def load_run(run_dir, with_volume=False, bake=False):
@@ -665,7 +691,11 @@ def load_run(run_dir, with_volume=False, bake=False):
     if with_volume:
         load_volume(run_dir, scene, volumes, up)
     surfaces = frame_files(run_dir, "ply", "surface_")
-    if surfaces and not bake:
+    remove_objects([o for o in [object_of_run("snowsim_surface", run_dir, "EMPTY" if not bake
+                                              else "MESH")] if o])
+    if surfaces and bake:
+        bake_sequence("snowsim_surface", run_dir, scene, surfaces, up, show_surface)
+    elif surfaces:
         surface = run_object("snowsim_surface", run_dir, scene, "MESH")
         turn_to_z_up(surface, up)
         show_surface(surface, next(iter(surfaces.values())))

@@ -35,17 +35,27 @@ for frame in (scene.frame_start, scene.frame_end):
     scene.frame_set(frame)
     snow = shown_snow(scene)
     entry = {"count": len(snow), "positions": snow.ravel().tolist()}
+    # The surface meshes shown (a baked file's one per frame): their names and vertices.
+    surfaces = [o for o in scene.objects if o.type == "MESH" and not o.hide_render and
+                o.name.startswith("snowsim_surface")]
+    entry["surfaces"] = {o.name: len(o.data.vertices) for o in surfaces}
     camera = scene.camera
     if camera and len(snow):
         centre = Vector(snow.mean(axis=0))
         entry["centre"] = list(centre)
         entry["in_view"] = list(world_to_camera_view(scene, camera, centre))
-        # Whether a face (a collider's, the ground's) lies between the camera and the centre.
+        # Whether a face (a collider's, the ground's; not the snow's own surface) lies between
+        # the camera and the centre.
         eye = camera.matrix_world.translation
-        towards = centre - eye
-        hit = scene.ray_cast(bpy.context.evaluated_depsgraph_get(), eye, towards.normalized(),
-                             distance=towards.length)
-        entry["hidden_by"] = hit[4].name if hit[0] else ""
+        direction = (centre - eye).normalized()
+        start, entry["hidden_by"] = eye, ""
+        while True:
+            hit = scene.ray_cast(bpy.context.evaluated_depsgraph_get(), start, direction,
+                                 distance=(centre - start).length)
+            if not hit[0] or not hit[4].name.startswith("snowsim_surface"):
+                entry["hidden_by"] = hit[4].name if hit[0] else ""
+                break
+            start = hit[1] + direction * 1e-5
     report["frames"][str(frame)] = entry
 ground = bpy.data.objects.get("snowsim_ground")
 if ground:

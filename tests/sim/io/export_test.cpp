@@ -444,17 +444,28 @@ TEST(Export, BlenderSavesAFileThatPlaysWithAutoRunAndSeesTheSnow) {
   EXPECT_EQ(still["frames"]["0"]["positions"], still["frames"]["4"]["positions"]);
 }
 
-// --bake keeps every frame in the file, which plays with no script at all; the scene's side
-// preset looks through the wall, so the camera frames the snow from another side.
+// --bake keeps every frame in the file, the particles and the surface meshes, which plays with no
+// script at all; the scene's side preset looks through the wall, so the camera frames the snow
+// from another side.
 TEST(Export, BlenderBakedFilePlaysWithoutAScriptAndSeesTheSnow) {
   if (runCommand("command -v blender").code != 0)
     GTEST_SKIP() << "blender is not installed (apt-get install blender; scripts/setup.sh does)";
-  const fs::path blend =
-      savedSmash("export_blender_baked", "--set 'render.camera={\"preset\": \"side\"}'", "--bake");
+  const fs::path blend = savedSmash(
+      "export_blender_baked", "--surface --set 'render.camera={\"preset\": \"side\"}'", "--bake");
   const auto shown = openSaved(blend);
   EXPECT_EQ(shown["texts"], nlohmann::json::array());
   expectPlays(shown);
   expectSeenOnTheGround(shown);
+  // One surface mesh shown at each frame, its own file's.
+  const fs::path run = blend.parent_path() / blend.stem();
+  for (const char* frame : {"0", "4"}) {
+    const std::string name = std::string("snowsim_surface_0000") + frame;
+    const nlohmann::json& surfaces = shown["frames"][frame]["surfaces"];
+    ASSERT_EQ(surfaces.size(), 1u) << surfaces.dump();
+    ASSERT_TRUE(surfaces.contains(name)) << surfaces.dump();
+    const SurfaceFile m = readSurfaceFile(run / ("surface_0000" + std::string(frame) + ".ply"));
+    EXPECT_EQ(surfaces[name].get<size_t>(), m.vertices.size()) << "frame " << frame;
+  }
 }
 
 // A scene whose only body is the particles of `ply` (a path relative to the scene), written

@@ -107,7 +107,7 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   const char* caveat = solves ? " or its solves take more iterations, as they do once "
                                 "the snow lands"
                        : open_cracks_ && !cracks_timed_
-                           ? "; with mpm.open_cracks a step takes 5 to 6 times as "
+                           ? "; with mpm.open_cracks a step takes 2 to 3 times as "
                              "long once any snow has stretched past J_P = 1"
                            : "";
   char text[400];  // the scene's name, of any length, goes in front

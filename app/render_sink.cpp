@@ -54,6 +54,10 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
       ->expected(3);
   addOffFlag(command, "--no-shadows", shadows, "3D: the key light casts no shadows");
   addOffFlag(command, "--no-occlusion", occlusion, "3D: no ambient occlusion between spheres");
+  command.add_flag("--supersample", supersample,
+                   "3D: anti-alias the spheres by drawing at twice the width and height and "
+                   "filtering down (smoother edges and finer lines, about three times the drawing "
+                   "time; default: FXAA at the image's size; the surface look always is)");
   command
       .add_option("--color-range,--colour-range", color_range,
                   "low,high: the values the colour map spans, fixed for every frame (default: "
@@ -114,6 +118,7 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (given("--background")) s.background = point(background);
   if (!shadows) s.shadows = false;
   if (!occlusion) s.occlusion = false;
+  if (supersample) s.supersample = true;
   if (givesColourRange()) s.color_range = ColourRange{color_range[0], color_range[1]};
   if (given("--surface-voxel")) s.surface.voxel = surface.voxel;
   if (given("--surface-radius")) s.surface.radius = surface.radius;
@@ -145,10 +150,10 @@ bool RenderOptions::givesCameraUp() const {
 
 void RenderOptions::warnAboutUnused(int dimension) const {
   const std::vector<const char*> unused =
-      dimension == 2
-          ? std::vector<const char*>{"--camera-eye",    "--camera-target", "--camera-up",   "--fov",
-                                     "--camera-preset", "--no-shadows",    "--no-occlusion"}
-          : std::vector<const char*>{"--density-cells"};
+      dimension == 2 ? std::vector<const char*>{"--camera-eye",   "--camera-target", "--camera-up",
+                                                "--fov",          "--camera-preset", "--no-shadows",
+                                                "--no-occlusion", "--supersample"}
+                     : std::vector<const char*>{"--density-cells"};
   std::string names;
   for (const char* name : unused)
     if (given(name)) names += (names.empty() ? "" : ", ") + std::string(name);
@@ -176,9 +181,11 @@ Camera cameraFromJson(const nlohmann::json& json) {
 }
 
 nlohmann::json drawingJson(const RenderSettings& settings) {
-  nlohmann::json j = {{"look", lookName(settings.look)}, {"sphere_radius", settings.sphere_radius},
-                      {"grid", settings.show_grid},      {"density_cells", settings.density_cells},
-                      {"shadows", settings.shadows},     {"occlusion", settings.occlusion}};
+  nlohmann::json j = {
+      {"look", lookName(settings.look)},    {"sphere_radius", settings.sphere_radius},
+      {"grid", settings.show_grid},         {"density_cells", settings.density_cells},
+      {"shadows", settings.shadows},        {"occlusion", settings.occlusion},
+      {"supersample", settings.supersample}};
   if (settings.background) j["background"] = *settings.background;
   const SurfaceSettings& surface = settings.surface;
   j["surface"] = {{"voxel", surface.voxel},
@@ -198,6 +205,7 @@ void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSe
   settings.density_cells = json.at("density_cells").get<bool>();
   settings.shadows = json.at("shadows").get<bool>();
   settings.occlusion = json.at("occlusion").get<bool>();
+  settings.supersample = json.value("supersample", false);  // not recorded before FXAA
   if (json.contains("background"))
     settings.background = json.at("background").get<std::array<double, 3>>();
   if (json.contains("surface")) {

@@ -31,6 +31,7 @@ struct RenderOptions {
   std::vector<double> background;
   bool shadows = true;
   bool occlusion = true;
+  bool supersample = false;
   std::string camera_preset;
   std::vector<double> color_range;
   SurfaceSettings surface;  // --surface-*: how the surface look and --surface build the surface

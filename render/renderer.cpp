@@ -255,12 +255,22 @@ void setTexture(GLuint program, const char* name, int unit, GLuint texture) {
   glUniform1i(glGetUniformLocation(program, name), unit);
 }
 
+// Whether a 3D frame is drawn at 2x2 its size and filtered down, its anti-aliasing: the surface
+// look's (the grain of its mesh and its small loose grains need it; its cost is in building the
+// surface) and, with --supersample, impostor frames'. Other impostor frames are anti-aliased by
+// FXAA at their size, at a third of the cost; sprite frames not at all (a sprite frame's cost is
+// in its many particles, and FXAA would blur them; docs/rendering.md).
+bool supersampled(const RenderSettings& settings, bool sprites) {
+  return settings.look == Look::Surface || (settings.supersample && !sprites);
+}
+
 // The programs for each pass: forward (2D), G-buffer and shadow map (3D), and the screen passes.
 struct Programs {
   GLuint sphere_forward, point_forward, mesh_forward, line;
   GLuint sphere_gbuffer, point_gbuffer, mesh_gbuffer, snow_gbuffer;
   GLuint point_depth, mesh_depth;  // the key light's shadow map
   GLuint occlusion, compose;
+  GLuint fxaa;    // anti-aliasing of 3D impostor frames drawn at the image's size
   GLuint volume;  // --look volume's ray march
 
   Programs() {
@@ -277,12 +287,14 @@ struct Programs {
     mesh_depth = link({mesh_vert}, {depth_only_frag});
     occlusion = link({fullscreen_vert}, {surface_glsl, occlusion_frag});
     compose = link({fullscreen_vert}, {surface_glsl, compose_frag});
+    fxaa = link({fullscreen_vert}, {fxaa_frag});
     volume = link({fullscreen_vert}, {volume_frag});
   }
 };
 
 // The 3D deferred targets, sized to the G-buffer (the image, or twice it each way when impostors
-// are supersampled): albedo, normal, depth; the lit image; the occlusion at half resolution.
+// are supersampled): albedo, normal, depth; the lit image (linearly filtered for the FXAA pass);
+// the occlusion at half resolution.
 struct DeferredTargets {
   int width = 0, height = 0;
   GLuint albedo = 0, normal = 0, depth = 0, gbuffer_fbo = 0;
@@ -298,7 +310,7 @@ struct DeferredTargets {
     depth =
         makeTexture(GL_DEPTH_COMPONENT24, w, h, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, GL_NEAREST);
     gbuffer_fbo = makeFramebuffer({albedo, normal}, depth);
-    lit = makeTexture(GL_RGBA8, w, h, GL_RGBA, GL_UNSIGNED_BYTE, GL_NEAREST);
+    lit = makeTexture(GL_RGBA8, w, h, GL_RGBA, GL_UNSIGNED_BYTE, GL_LINEAR);
     lit_fbo = makeFramebuffer({lit}, 0);
     occlusion = makeTexture(GL_R8, w / 2, h / 2, GL_RED, GL_UNSIGNED_BYTE, GL_LINEAR);
     occlusion_fbo = makeFramebuffer({occlusion}, 0);
@@ -543,9 +555,9 @@ Image Renderer::render(const Snapshot& s) {
   if (settings_.density_cells) densityCells(s, extent, palette.background, g.cells);
   g.lines.clear();
   g.floor_lines.clear();
-  // 3D sprite frames are not supersampled: their lines a pixel wide get half the contrast.
+  // 3D frames not supersampled (sprites, FXAA): their lines a pixel wide get half the contrast.
   const GridCanvas canvas{palette.background, palette.ground,
-                          s.grid.dimension == 3 && sprites ? 0.5f : 1.f};
+                          s.grid.dimension == 3 && !supersampled(settings_, sprites) ? 0.5f : 1.f};
   if (settings_.show_grid)
     gridLines(s, extent, camera, w, h, canvas, g.lines, g.floor_lines);
   else if (s.grid.dimension == 2)
@@ -698,9 +710,9 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
                                   Particles seen_by_light) {
   Gl& g = *this;
   const Programs& p = g.programs;
-  // Impostor frames are supersampled 2x2 (their anti-aliasing); sprite frames are not (a sprite
-  // frame's cost is in its many particles, docs/rendering.md).
-  const int scale = sprites ? 1 : 2, gw = scale * settings.width, gh = scale * settings.height;
+  const bool fxaa = !supersampled(settings, sprites) && !sprites;
+  const int scale = supersampled(settings, sprites) ? 2 : 1, gw = scale * settings.width,
+            gh = scale * settings.height;
   g.deferred.resize(gw, gh);
 
   // The key light's shadow map: the particles and the colliders (the ground only receives).
@@ -765,6 +777,7 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
     setUniform(p.occlusion, "radius", 5 * radius);
     setUniform(p.occlusion, "pixels_per_metre", camera.projection[1][1] * 0.5f * gh);
     setUniform(p.occlusion, "strength", 1.6f);
+    setUniform(p.occlusion, "image_step", float(scale));
     glDrawArrays(GL_TRIANGLES, 0, 3);
   }
 
@@ -793,7 +806,17 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   glDrawArrays(GL_TRIANGLES, 0, 3);
   if (settings.look == Look::Volume && !g.volume.empty()) g.drawVolume(camera, palette);
 
-  // Down to the image: a 2x2 box filter for supersampled frames (linear filtering at half scale).
+  // Down to the image: FXAA, or a 2x2 box filter for supersampled frames (linear filtering at
+  // half scale).
+  if (fxaa) {
+    glBindFramebuffer(GL_FRAMEBUFFER, g.resolve_fbo);
+    glViewport(0, 0, settings.width, settings.height);
+    glUseProgram(p.fxaa);
+    setTexture(p.fxaa, "lit_texture", 0, g.deferred.lit);
+    glBindVertexArray(g.screen_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    return;
+  }
   glBindFramebuffer(GL_READ_FRAMEBUFFER, g.deferred.lit_fbo);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, g.resolve_fbo);
   glBlitFramebuffer(0, 0, gw, gh, 0, 0, settings.width, settings.height, GL_COLOR_BUFFER_BIT,

@@ -57,6 +57,7 @@ struct RenderSettings {
   std::optional<std::array<double, 3>> background;  // RGB in [0, 1]; none: the look's
   bool shadows = true;                              // 3D: the key light casts shadows (shadow map)
   bool occlusion = true;                            // 3D: screen-space ambient occlusion
+  bool supersample = false;  // 3D impostor frames drawn at 2x2 the size (else FXAA; renderer.cpp)
   // Fixed for a run so that colours mean the same in every frame; none: render/colour.h's
   // default for the attribute.
   std::optional<ColourRange> color_range;

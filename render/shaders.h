@@ -20,5 +20,6 @@ extern const char* const fullscreen_vert;
 extern const char* const surface_glsl;
 extern const char* const occlusion_frag;
 extern const char* const compose_frag;
+extern const char* const fxaa_frag;
 extern const char* const volume_frag;
 }  // namespace snowsim::shaders

@@ -6,6 +6,7 @@
 uniform float radius;            // world (view-space) metres
 uniform float pixels_per_metre;  // at unit distance: projection[1][1] * height / 2
 uniform float strength;
+uniform float image_step;        // G-buffer pixels a side per image pixel (2 supersampled)
 
 out vec4 occlusion;
 
@@ -19,7 +20,8 @@ void main() {
   }
   vec3 centre = viewPosition(p);
   vec3 normal = surfaceNormal(p, centre);
-  float disc = clamp(radius * pixels_per_metre / -centre.z, 2.0, 64.0);
+  // At most 32 pixels of the image, however many G-buffer pixels that is.
+  float disc = clamp(radius * pixels_per_metre / -centre.z, 2.0, 32.0 * image_step);
   ivec2 pattern = ivec2(gl_FragCoord.xy) & 3;
   float turn = float(pattern.x * 4 + pattern.y) * 0.3927;  // 2 pi / 16
   ivec2 last = textureSize(depth_texture, 0) - 1;

@@ -58,6 +58,8 @@ void RenderOptions::addImageOptionsTo(CLI::App& command) {
                    "3D: anti-alias the spheres by drawing at twice the width and height and "
                    "filtering down (smoother edges and finer lines, about three times the drawing "
                    "time; default: FXAA at the image's size; the surface look always is)");
+  command.add_flag("--no-supersample", no_supersample,
+                   "3D: FXAA at the image's size, for a run that was drawn with --supersample");
   command
       .add_option("--color-range,--colour-range", color_range,
                   "low,high: the values the colour map spans, fixed for every frame (default: "
@@ -118,7 +120,10 @@ RenderSettings RenderOptions::settings(RenderSettings s) const {
   if (given("--background")) s.background = point(background);
   if (!shadows) s.shadows = false;
   if (!occlusion) s.occlusion = false;
+  if (supersample && no_supersample)
+    throw InputError("--supersample and --no-supersample: give one of them");
   if (supersample) s.supersample = true;
+  if (no_supersample) s.supersample = false;
   if (givesColourRange()) s.color_range = ColourRange{color_range[0], color_range[1]};
   if (given("--surface-voxel")) s.surface.voxel = surface.voxel;
   if (given("--surface-radius")) s.surface.radius = surface.radius;
@@ -150,10 +155,11 @@ bool RenderOptions::givesCameraUp() const {
 
 void RenderOptions::warnAboutUnused(int dimension) const {
   const std::vector<const char*> unused =
-      dimension == 2 ? std::vector<const char*>{"--camera-eye",   "--camera-target", "--camera-up",
-                                                "--fov",          "--camera-preset", "--no-shadows",
-                                                "--no-occlusion", "--supersample"}
-                     : std::vector<const char*>{"--density-cells"};
+      dimension == 2
+          ? std::vector<const char*>{"--camera-eye",   "--camera-target", "--camera-up",
+                                     "--fov",          "--camera-preset", "--no-shadows",
+                                     "--no-occlusion", "--supersample",   "--no-supersample"}
+          : std::vector<const char*>{"--density-cells"};
   std::string names;
   for (const char* name : unused)
     if (given(name)) names += (names.empty() ? "" : ", ") + std::string(name);

@@ -32,6 +32,7 @@ struct RenderOptions {
   bool shadows = true;
   bool occlusion = true;
   bool supersample = false;
+  bool no_supersample = false;
   std::string camera_preset;
   std::vector<double> color_range;
   SurfaceSettings surface;  // --surface-*: how the surface look and --surface build the surface

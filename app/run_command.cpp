@@ -938,18 +938,20 @@ void addRunOptions(CLI::App* cmd, RunOptions* options, bool scene_must_exist) {
       "--vdb", options->vdb,
       "Also write frame_NNNNN.vdb per frame (3D runs): OpenVDB grids density (kg/m^3) and "
       "velocity (m/s) on voxels of the cell size, for volumetric rendering");
-  cmd->add_flag("--surface", options->surface,
-                "Also write surface_NNNNN.ply per frame (3D runs): the snow's surface mesh, "
-                "vertices with normals and triangles (settings: --surface-*), and with --vdb a "
-                "level set grid `surface` in each VDB");
+  cmd->add_flag(
+      "--surface", options->surface,
+      "Also write surface_NNNNN.ply (or .obj) per frame (3D runs): the snow's surface mesh, "
+      "vertices with normals and triangles (settings: --surface-*), and with --vdb a "
+      "level set grid `surface` in each VDB");
   cmd->add_option("--surface-format", options->surface_format,
                   "ply | obj: the file format of --surface's meshes (binary PLY, the default, "
                   "which the Blender loader reads; or Wavefront OBJ text, about 4 times larger)")
       ->check(CLI::IsMember({"ply", "obj"}));
-  cmd->add_flag("--z-up", options->z_up,
-                "Write PLY and VDB frames with z up, as Blender's z-up world expects (Houdini is y "
-                "up, as snowsim): "
-                "(x, y, z) -> (x, -z, y), a rotation about x (snowsim render reads them back)");
+  cmd->add_flag(
+      "--z-up", options->z_up,
+      "Write PLY, VDB and surface frames with z up, as Blender's z-up world expects (Houdini is y "
+      "up, as snowsim): "
+      "(x, y, z) -> (x, -z, y), a rotation about x (snowsim render reads them back)");
   options->render.addTo(*cmd);
   cmd->add_option("--checkpoint-every", options->checkpoint_every,
                   "Write a checkpoint (checkpoint.snowsim) every N frames, besides every "

@@ -42,9 +42,13 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
   }
   args.push_back(name);
   const auto text = [&](const py::handle& item) {
+    if (py::isinstance<py::bool_>(item) ||
+        py::isinstance(item, py::module_::import("numpy").attr("bool_")))
+      throw py::type_error("render: " + key + ": " + py::repr(item).cast<std::string>() +
+                           " is not a number");
     // Any number, numpy's among them (float32 is no Python float), as the command line's text.
     const py::module_ numbers = py::module_::import("numbers");
-    if (py::isinstance(item, numbers.attr("Integral")) && !py::isinstance<py::bool_>(item))
+    if (py::isinstance(item, numbers.attr("Integral")))
       return py::str(py::int_(py::reinterpret_borrow<py::object>(item))).cast<std::string>();
     if (py::isinstance(item, numbers.attr("Real"))) {
       const double number = py::float_(py::reinterpret_borrow<py::object>(item)).cast<double>();

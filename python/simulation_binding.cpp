@@ -233,9 +233,11 @@ void bindSimulation(py::module_& m) {
           "allowed.")
       .def_property_readonly("closed", [](const Self& self) { return !self.simulation; })
       .def("__enter__", [](Self& self) -> Self& { return self; })
-      .def("__exit__", [](Self& self, const py::args&) {
-        // As close(): a simulation another thread is stepping raises rather than stay open unsaid.
+      .def("__exit__", [](Self& self, const py::args& raised) {
+        // As close(): a simulation another thread is stepping raises rather than stay open
+        // unsaid, unless the block is leaving on an exception, which must not be replaced.
         if (!self.simulation) return;
+        if (self.busy && !raised.empty() && !raised[0].is_none()) return;
         self.live("leaving the with block");
         self.simulation.reset();
       });

@@ -292,8 +292,8 @@ struct Programs {
   }
 };
 
-// The 3D deferred targets, sized to the G-buffer (the image, or twice it each way when impostors
-// are supersampled): albedo, normal, depth; the lit image (linearly filtered for the FXAA pass);
+// The 3D deferred targets, sized to the G-buffer (the image, or twice it each way when the frame
+// is supersampled): albedo, normal, depth; the lit image (linearly filtered for the FXAA pass);
 // the occlusion at half resolution.
 struct DeferredTargets {
   int width = 0, height = 0;
@@ -601,6 +601,8 @@ Image Renderer::render(const Snapshot& s) {
     const SnowSurface& surface = s.surface ? *s.surface : *built;
     g.fillInstances(s, settings_, {&surface.loose, &surface.loose});  // checks the colouring
     g.fillSnow(s, surface, settings_, spacing);
+    glUseProgram(g.programs.snow_gbuffer);  // the grain is the particles', whatever the spheres'
+    setUniform(g.programs.snow_gbuffer, "grain", static_cast<float>(spacing));
     const auto loose = static_cast<GLsizei>(surface.loose.size());
     g.renderDeferred(settings_, camera, palette, extent, radius, sprites, mesh_vertices, {0, loose},
                      {loose, settings_.shadows ? loose : 0});
@@ -751,8 +753,6 @@ void Renderer::Gl::renderDeferred(const RenderSettings& settings, const View& ca
   g.drawLines(camera, 0.5f, g.lines, GL_LINES);
   g.drawLines(camera, 1.f, g.floor_lines, GL_LINES);
   glColorMaski(1, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  glUseProgram(p.snow_gbuffer);
-  setUniform(p.snow_gbuffer, "grain", 2 * radius);
   g.drawSnow(p.snow_gbuffer, camera);
   g.drawSpheres(sprites ? p.point_gbuffer : p.sphere_gbuffer, camera, radius, gh, sprites,
                 seen_by_camera, true);

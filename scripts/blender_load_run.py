@@ -645,7 +645,9 @@ def blocker(scene, depsgraph, eye, point, reach=1.0):
     end = eye + towards * reach
     direction = towards.normalized()
     while True:
-        left = (end - start).length
+        left = (end - start).dot(direction)
+        if left <= 0:
+            return None
         hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, start, direction, distance=left)
         if not hit:
             return None

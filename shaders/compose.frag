@@ -55,12 +55,14 @@ void main() {
   vec3 normal = surfaceNormal(p, position);
   float cosine = dot(normal, key_direction);
   float facing = max(cosine, 0.0);
-  float lit = use_shadows && facing > 0.0 ? keyVisibility(position + normal_offset * normal) : 1.0;
   // The surface look's snow scatters light under its surface: the key light wraps a little past
   // the terminator (wrapped Lambert), which keeps its bent grains from turning black there.
+  // kSnowAlpha (0.875, gbuffer.glsl, not compiled in here) lies between 0.75 and 0.95.
   const float kWrap = 0.35;
   bool snow = albedo.a < 0.95;
   float diffuse = snow ? max((cosine + kWrap) / (1.0 + kWrap), 0.0) : facing;
+  float lit =
+      use_shadows && diffuse > 0.0 ? keyVisibility(position + normal_offset * normal) : 1.0;
   float ao = use_occlusion ? ambientOcclusion() : 1.0;
   vec3 fill = mix(bounce_color, sky_color, 0.5 + 0.5 * dot(normal, up_direction)) * ao;
   vec3 halfway = normalize(key_direction + normalize(-position));

@@ -26,8 +26,8 @@ void main() {
   float m = luma(centre);
   float lowest = min(m, min(min(nw, ne), min(sw, se)));
   float highest = max(m, max(max(nw, ne), max(sw, se)));
-  // Along the edge: perpendicular to the luma's gradient over the diagonals.
-  vec2 along = vec2(-((nw + ne) - (sw + se)), (nw + sw) - (ne + se));
+  // Along the edge: perpendicular to the luma's gradient over the diagonals (y up).
+  vec2 along = vec2(-((nw + ne) - (sw + se)), (ne + se) - (nw + sw));
   float reduce = max((nw + ne + sw + se) * 0.25 * kReduceMul, kReduceMin);
   float scale = 1.0 / (min(abs(along.x), abs(along.y)) + reduce);
   along = clamp(along * scale, vec2(-kSpanMax), vec2(kSpanMax)) * texel;

@@ -653,6 +653,29 @@ TEST(Cli, SurfaceLookDrawsARunAndItsSavedFrames) {
       << coarse.output;
 }
 
+// --supersample is recorded in run.json and `render` draws the run so again; --no-supersample
+// redraws it with FXAA, another picture of the same close-up impostor frame.
+TEST(Cli, SupersamplingIsRecordedAndRedrawnAsTheRunDrewIt) {
+  const fs::path out = freshDir("supersample");
+  const Result r = runSnowsim("run " + scene("mpm_snowball_wall") + " -o " + out.string() +
+                              " --set time.duration=0.1 --set time.fps=10 --width 320 "
+                              "--height 180 --camera-eye 0.12,0.16,0.2 --camera-target "
+                              "0.26,0.1,0.08 --no-mp4 --supersample");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json summary = nlohmann::json::parse(std::ifstream(out / "run.json"));
+  EXPECT_EQ(summary["drawing"]["supersample"], true);
+  const fs::path again = out / "again", fxaa = out / "fxaa";
+  ASSERT_EQ(runSnowsim("render " + out.string() + " -o " + again.string() + " --no-mp4").code, 0);
+  ASSERT_EQ(
+      runSnowsim("render " + out.string() + " -o " + fxaa.string() + " --no-mp4 --no-supersample")
+          .code,
+      0);
+  const auto pixels = [](const fs::path& file) { return snowsim::readPng(file.string()).rgba; };
+  EXPECT_EQ(pixels(again / "frame_00001.png"), pixels(out / "frame_00001.png"));
+  EXPECT_NE(pixels(fxaa / "frame_00001.png"), pixels(out / "frame_00001.png"))
+      << "the frame was not drawn supersampled";
+}
+
 // --surface-format obj writes the same mesh as the PLY, as OBJ text: as many vertices, normals and
 // triangles, the same first vertex, indices counted from 1.
 TEST(Cli, SurfaceMeshesAsObjHoldThePlysMesh) {

@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 
 import numpy as np
@@ -139,6 +140,8 @@ def test_bad_input_raises_naming_the_field(snowsim, tmp_path):
         snowsim.render(simulation, 64, 48, camera_eye=np.array([0.1, np.inf, 0.2], np.float32))
     with pytest.raises(TypeError, match="sphere_radius: True is not a value"):
         snowsim.render(simulation, 64, 48, sphere_radius=True)
+    with pytest.raises(TypeError, match="camera_eye: True is not a number"):
+        snowsim.render(simulation, 64, 48, camera_eye=(True, 0.2, 0.3))
     assert snowsim.render(simulation, 64, 48, sphere_radius=np.float32(0.01)).shape == (48, 64, 3)
     with pytest.raises(ValueError, match=r"shape is \(height, width, 3 or 4\)"):
         snowsim.write_png(str(tmp_path / "x.png"), np.zeros((4, 4), np.uint8))
@@ -236,3 +239,19 @@ def test_a_run_directory_checkpoint_loads_and_steps_as_resume_does(snowsim, tmp_
     positions = simulation.positions().astype(np.float32)
     for a in range(3):
         assert np.array_equal(last["xyz"[a]], positions[:, a])
+
+
+def test_leaving_a_with_block_while_another_thread_steps_raises(snowsim):
+    simulation = snowsim.Simulation(snowsim.load_scene(scene_path("mpm_snowball_wall")))
+    stepping = threading.Thread(target=simulation.advance_to, args=(0.5,))
+    with pytest.raises(ValueError, match="another thread is stepping"):
+        with simulation:
+            stepping.start()
+            while stepping.is_alive():  # until the other thread holds it
+                try:
+                    simulation.time
+                except ValueError:
+                    break
+    stepping.join()
+    assert not simulation.closed, "closed under the stepping thread"
+    simulation.close()

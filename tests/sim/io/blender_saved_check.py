@@ -50,9 +50,10 @@ for frame in (scene.frame_start, scene.frame_end):
         direction = (centre - eye).normalized()
         start, entry["hidden_by"] = eye, ""
         while True:
+            left = (centre - start).dot(direction)
             hit = scene.ray_cast(bpy.context.evaluated_depsgraph_get(), start, direction,
-                                 distance=(centre - start).length)
-            if not hit[0] or not hit[4].name.startswith("snowsim_surface"):
+                                 distance=max(left, 0.0))
+            if left <= 0 or not hit[0] or not hit[4].name.startswith("snowsim_surface"):
                 entry["hidden_by"] = hit[4].name if hit[0] else ""
                 break
             start = hit[1] + direction * 1e-5

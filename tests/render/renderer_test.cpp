@@ -290,8 +290,8 @@ double highFrequencyEnergy(const Image& image) {
 }
 
 // A 3D domain of 120x80x80 cells of 5 mm at the default 1280x720: drawing every cell line (the
-// back wall's 3-4 pixels apart, the floor's one or two) gives 2.23; the lines a viewer can
-// resolve, 0.78.
+// back wall's 3-4 pixels apart, the floor's one or two) is moire; the lines a viewer can resolve
+// give about half the bound.
 TEST(Renderer, FineGridsRenderWithoutMoire) {
   Snapshot s;
   s.grid.dimension = 3;
@@ -302,7 +302,7 @@ TEST(Renderer, FineGridsRenderWithoutMoire) {
 
 // The figure look's back grid at 640x360 stays a light grid, not a dark mesh: seen from the front,
 // a wall of 60x40 cells of 1 cm (the flagship smash at --scale 0.5) lies about 7 pixels a cell,
-// and a small particle makes the frame one of sprites, not supersampled. The ink is how far
+// and a small particle makes the frame one of sprites, not anti-aliased. The ink is how far
 // below the white background the wall's pixels are, on average.
 TEST(Renderer, FigureGridStaysLightAtSmallSizes) {
   Snapshot s;

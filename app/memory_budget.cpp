@@ -116,12 +116,7 @@ RunMemory runMemory(const Scene& scene, long particles, const FrameOutput& outpu
 
 void refuseWhatCannotFit(const RunMemory& memory, std::optional<double> max_memory,
                          const std::string& max_memory_text) {
-  // The grid indexes its nodes by int (sim/core/grid.h).
-  if (memory.simulation.nodes > std::numeric_limits<int>::max())
-    throw InputError(memory.scene_name + ": grid.cells make " +
-                     std::to_string(memory.simulation.nodes) +
-                     " grid nodes (the ghost layers included), more than the " +
-                     std::to_string(std::numeric_limits<int>::max()) + " a grid holds");
+  refuseGridTooLarge(memory.scene_name, memory.simulation.nodes);
   const double needed = memory.bytes();
   const std::optional<double> available = availableMemory();
   std::string limit;

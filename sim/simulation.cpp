@@ -8,6 +8,7 @@
 #include "sim/report/density_hybrid.h"
 #include "sim/scene/sampling.h"
 #include "sim/scene/scene_colliders.h"
+#include "sim/simulation_memory.h"
 
 namespace snowsim {
 
@@ -131,6 +132,7 @@ class SimulationOf final : public Simulation {
 }  // namespace
 
 std::unique_ptr<Simulation> makeSimulation(const Scene& scene, int threads, RankExchange& world) {
+  refuseGridTooLarge(scene.name, gridNodeCount(scene));
   if (scene.dimension == 2) return std::make_unique<SimulationOf<2>>(scene, threads, world);
   return std::make_unique<SimulationOf<3>>(scene, threads, world);
 }

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <type_traits>
 #include <vector>
 
+#include "sim/core/errors.h"
 #include "sim/core/grid.h"
 #include "sim/core/math.h"
 #include "sim/mpm/stress_differential.h"
@@ -147,6 +150,13 @@ long gridNodeCount(const Scene& scene) {
   long nodes = 1;
   for (int a = 0; a < scene.dimension; ++a) nodes *= scene.cells[a] + 1 + 2 * kGhost;
   return nodes;
+}
+
+void refuseGridTooLarge(const std::string& scene_name, long nodes) {
+  if (nodes > std::numeric_limits<int>::max())
+    throw InputError(scene_name + ": grid.cells make " + std::to_string(nodes) +
+                     " grid nodes (the ghost layers included), more than the " +
+                     std::to_string(std::numeric_limits<int>::max()) + " a grid holds");
 }
 
 SimulationMemory simulationMemory(const Scene& scene, long particles) {

@@ -31,6 +31,10 @@ struct SimulationMemory {
 // The stored grid nodes of the scene's grid, the ghost layers included (GridGeometry).
 long gridNodeCount(const Scene& scene);
 
+// InputError naming the scene and grid.cells when its grid holds more nodes than the grid's int
+// index reaches; makeSimulation calls it first, and a run before it allocates anything.
+void refuseGridTooLarge(const std::string& scene_name, long nodes);
+
 SimulationMemory simulationMemory(const Scene& scene, long particles);
 
 }  // namespace snowsim

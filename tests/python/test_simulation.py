@@ -128,6 +128,10 @@ def test_bad_input_raises_naming_the_field(snowsim, tmp_path):
         simulation.advance_to("soon")
     with pytest.raises(ValueError, match="threads: 0"):
         snowsim.Simulation(snowsim.load_scene(path), threads=0)
+    # A grid too large for its int index is refused before anything of it is allocated.
+    huge = snowsim.load_scene(scene_path("mpm_snowball_wall"), {"grid.cells": [4096, 4096, 4096]})
+    with pytest.raises(ValueError, match="grid.cells make .* grid nodes"):
+        snowsim.Simulation(huge)
     with pytest.raises(ValueError, match="--look"):
         snowsim.render(simulation, 64, 48, look="painterly")
     with pytest.raises(ValueError, match="camera-wobble"):

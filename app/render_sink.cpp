@@ -1,6 +1,8 @@
 #include "app/render_sink.h"
 
 #include <cstdio>
+#include <optional>
+#include <type_traits>
 
 #include "app/options.h"
 #include "sim/core/errors.h"
@@ -204,28 +206,54 @@ nlohmann::json drawingJson(const RenderSettings& settings) {
   return j;
 }
 
+namespace {
+
+// json[name] as a T, or an InputError naming where.name and what it holds instead; `fallback`,
+// when given, stands for a missing field (one an older run.json did not record).
+template <class T>
+T field(const nlohmann::json& json, const char* name, const std::string& where,
+        std::optional<T> fallback = std::nullopt) {
+  if (!json.contains(name)) {
+    if (fallback) return *fallback;
+    throw InputError(where + "." + name + ": missing");
+  }
+  try {
+    return json.at(name).get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw InputError(where + "." + name + ": " + json.at(name).dump() + " is not a " +
+                     (std::is_same_v<T, bool>          ? "true or false"
+                      : std::is_same_v<T, std::string> ? "string"
+                      : std::is_same_v<T, int>         ? "whole number"
+                      : std::is_arithmetic_v<T>        ? "number"
+                                                       : "list of three numbers"));
+  }
+}
+
+}  // namespace
+
 void applyDrawing(const nlohmann::json& json, const std::string& where, RenderSettings& settings) {
-  settings.look = parseLook(json.at("look").get<std::string>(), where + ": look");
-  settings.sphere_radius = json.at("sphere_radius").get<double>();
-  settings.show_grid = json.at("grid").get<bool>();
-  settings.density_cells = json.at("density_cells").get<bool>();
-  settings.shadows = json.at("shadows").get<bool>();
-  settings.occlusion = json.at("occlusion").get<bool>();
-  settings.supersample = json.value("supersample", false);  // not recorded before FXAA
+  settings.look = parseLook(field<std::string>(json, "look", where), where + ".look");
+  settings.sphere_radius = field<double>(json, "sphere_radius", where);
+  settings.show_grid = field<bool>(json, "grid", where);
+  settings.density_cells = field<bool>(json, "density_cells", where);
+  settings.shadows = field<bool>(json, "shadows", where);
+  settings.occlusion = field<bool>(json, "occlusion", where);
+  settings.supersample =
+      field<bool>(json, "supersample", where, false);  // not recorded before FXAA
   if (json.contains("background"))
-    settings.background = json.at("background").get<std::array<double, 3>>();
+    settings.background = field<std::array<double, 3>>(json, "background", where);
   if (json.contains("surface")) {
     const nlohmann::json& j = json.at("surface");
+    const std::string at = where + ".surface";
     SurfaceSettings& surface = settings.surface;
-    surface.voxel = j.at("voxel").get<double>();
-    surface.radius = j.at("radius").get<double>();
-    surface.erode = j.at("erode").get<double>();
-    surface.filter =
-        parseSurfaceFilter(j.at("filter").get<std::string>(), where + ": surface.filter");
-    surface.smoothing = j.at("smoothing").get<int>();
-    surface.adaptivity = j.at("adaptivity").get<double>();
-    surface.min_neighbours = j.at("min_neighbours").get<int>();
-    validate(surface, where + ": surface.");
+    surface.voxel = field<double>(j, "voxel", at);
+    surface.radius = field<double>(j, "radius", at);
+    surface.erode = field<double>(j, "erode", at);
+    surface.filter = parseSurfaceFilter(field<std::string>(j, "filter", at), at + ".filter");
+    surface.smoothing = field<int>(j, "smoothing", at);
+    surface.adaptivity = field<double>(j, "adaptivity", at);
+    surface.min_neighbours = field<int>(j, "min_neighbours", at);
+    validate(surface, at + ".");
   }
 }
 

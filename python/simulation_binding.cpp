@@ -31,9 +31,17 @@ int checkedThreads(int threads) {
 }
 
 PySimulation* makePySimulation(const Scene& scene, int threads) {
-  auto* made = new PySimulation{scene, makeSimulation(scene, checkedThreads(threads)), {}};
-  made->first = made->simulation->snapshot(0);
-  return made;
+  const int checked = checkedThreads(threads);
+  std::unique_ptr<Simulation> simulation;
+  Snapshot first;
+  {
+    // Sampling a large scene's bodies and building its solver take a while: other Python threads
+    // run meanwhile.
+    py::gil_scoped_release released;
+    simulation = makeSimulation(scene, checked);
+    first = simulation->snapshot(0);
+  }
+  return new PySimulation{scene, std::move(simulation), std::move(first)};
 }
 
 // Steps with the GIL released, taking it back between steps to look for Ctrl-C: a signal stops

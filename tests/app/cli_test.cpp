@@ -674,6 +674,19 @@ TEST(Cli, SupersamplingIsRecordedAndRedrawnAsTheRunDrewIt) {
   EXPECT_EQ(pixels(again / "frame_00001.png"), pixels(out / "frame_00001.png"));
   EXPECT_NE(pixels(fxaa / "frame_00001.png"), pixels(out / "frame_00001.png"))
       << "the frame was not drawn supersampled";
+
+  // A run.json whose record is damaged is refused naming the field, with nothing drawn.
+  nlohmann::json damaged = summary;
+  damaged["drawing"]["supersample"] = "yes";
+  std::ofstream(out / "run.json") << damaged.dump();
+  const fs::path refused_dir = out / "refused";
+  const Result refused =
+      runSnowsim("render " + out.string() + " -o " + refused_dir.string() + " --no-mp4");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("drawing.supersample: \"yes\" is not a true or false"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_FALSE(fs::exists(refused_dir / "frame_00000.png"));
 }
 
 // --surface-format obj writes the same mesh as the PLY, as OBJ text: as many vertices, normals and

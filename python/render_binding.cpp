@@ -17,6 +17,12 @@ namespace snowsim {
 
 namespace {
 
+// True or False, Python's or numpy's.
+bool isBoolean(const py::handle& value) {
+  return py::isinstance<py::bool_>(value) ||
+         py::isinstance(value, py::module_::import("numpy").attr("bool_"));
+}
+
 // A keyword argument as the command line's option: look="figure" is --look figure, a sequence is
 // joined with commas (camera_eye=(0.3, 0.2, 0.4)), True is the flag (no_grid=True), False the flag
 // that turns it off (shadows=False is --no-shadows).
@@ -25,8 +31,7 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
   std::string name = "--" + key;
   std::replace(name.begin(), name.end(), '_', '-');
   const CLI::Option* option = app.get_option_no_throw(name);
-  if (py::isinstance<py::bool_>(value) ||
-      py::isinstance(value, py::module_::import("numpy").attr("bool_"))) {
+  if (isBoolean(value)) {
     const bool on = value.cast<bool>();
     if (option && option->get_items_expected_min() > 0)
       throw py::type_error("render: " + key + ": " + py::repr(value).cast<std::string>() +
@@ -42,8 +47,7 @@ void appendOption(const CLI::App& app, const std::string& key, const py::handle&
   }
   args.push_back(name);
   const auto text = [&](const py::handle& item) {
-    if (py::isinstance<py::bool_>(item) ||
-        py::isinstance(item, py::module_::import("numpy").attr("bool_")))
+    if (isBoolean(item))
       throw py::type_error("render: " + key + ": " + py::repr(item).cast<std::string>() +
                            " is not a number");
     // Any number, numpy's among them (float32 is no Python float), as the command line's text.

@@ -56,7 +56,11 @@ CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& s
       steps_taken_(resumed ? resumed->steps_taken : 0),
       particles_(particles),
       initial_step_(std::min(scene.dt, start.step)),
+      forecast_(forecastStep(scene, start)),
       open_cracks_(scene.solver == SolverType::Mpm && scene.mpm.open_cracks) {
+  // A moving collider can compact snow past what an impact does, unless the hardening is bounded.
+  may_harden_further_ = forecast_ && forecast_->driven && scene.material.hardening_max > 1e6;
+  if (forecast_ && resumed) forecast_->impact_time -= resumed->simulated;
   char grid[96];
   int n = std::snprintf(grid, sizeof grid, "%d", scene.cells[0]);
   for (int a = 1; a < scene.dimension; ++a)
@@ -69,16 +73,24 @@ CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& s
 double CostEstimate::stepCount() const {
   // A duration a round-off above a whole number of steps takes no extra step; zero takes none
   // (not the -0 that ceil gives).
-  return std::max(0.0, std::ceil(duration_ / initial_step_ - 1e-9));
+  if (!forecast_) return std::max(0.0, std::ceil(duration_ / initial_step_ - 1e-9));
+  const double before_impact = std::clamp(forecast_->impact_time, 0.0, duration_);
+  return std::ceil(before_impact / initial_step_ +
+                   (duration_ - before_impact) / forecast_->hardened_step - 1e-9);
 }
 
 std::string CostEstimate::before() const {
-  char text[400];  // the scene's name, of any length, goes in front
+  char hardened[160] = "";
+  if (forecast_ && forecast_->hardened_step < initial_step_)
+    std::snprintf(hardened, sizeof hardened,
+                  ", %.2g s once it meets an obstacle at about %.2g m/s and hardens",
+                  forecast_->hardened_step, forecast_->impact_speed);
+  char text[600];  // the scene's name, of any length, goes in front
   std::snprintf(text, sizeof text,
-                ": %s particles, %s; %.3g s %s at a first step of %.2g s: about %s "
+                ": %s particles, %s; %.3g s %s at a first step of %.2g s%s: about %s "
                 "steps, %s particle-steps",
                 roughCount(particles_).c_str(), grid_.c_str(), duration_,
-                resumed_ ? "left to simulate" : "simulated", initial_step_,
+                resumed_ ? "left to simulate" : "simulated", initial_step_, hardened,
                 roughCount(stepCount()).c_str(), roughCount(particle_steps_).c_str());
   return name_ + text;
 }
@@ -104,18 +116,23 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   // Cracks that open cost their passes only once some snow has stretched past J_P = 1, which the
   // first steps before an impact do not show (docs/snow-at-scale.md measures the factor), unless
   // the timed steps ran them from the first (a resumed run, snow stretched from the start).
-  const char* caveat = solves ? " or its solves take more iterations, as they do once "
-                                "the snow lands"
-                       : open_cracks_ && !cracks_timed_
-                           ? "; with mpm.open_cracks a step takes 2 to 3 times as "
-                             "long once any snow has stretched past J_P = 1"
-                           : "";
-  char text[400];  // the scene's name, of any length, goes in front
+  const bool cracks_ahead = open_cracks_ && !cracks_timed_;
+  const char* caveat =
+      solves         ? "; more if its solves take more iterations, as they do once the snow lands"
+      : cracks_ahead ? "; with mpm.open_cracks a step takes 2 to 4 times as long once any snow has "
+                       "stretched past J_P = 1"
+      : may_harden_further_ ? "; up to twice the steps as a moving collider compacts the snow"
+                            : "";
+  const double seconds_at_rate = particle_steps_ / rate;
+  const double low = seconds_at_rate * (cracks_ahead ? 2 : 1);
+  const double high = seconds_at_rate * (cracks_ahead ? 4 : 1) * (may_harden_further_ ? 2 : 1);
+  std::string span = roughDuration(low);
+  if (roughDuration(high) != span) span += " to " + roughDuration(high);
+  char text[600];  // the scene's name, of any length, goes in front
   std::snprintf(text, sizeof text,
                 ": estimate: the steps take about %s (%s particle-steps a second over steps "
-                "2-%d; more if the step shrinks%s); rendering and writing frames come on top",
-                roughDuration(particle_steps_ / rate).c_str(), roughCount(rate).c_str(),
-                1 + measured_steps, caveat);
+                "2-%d%s); rendering and writing frames come on top",
+                span.c_str(), roughCount(rate).c_str(), 1 + measured_steps, caveat);
   return name_ + text;
 }
 

@@ -1,13 +1,14 @@
 // What a run will cost, said before it starts (or resumes): its particles, its grid, and the steps
-// and particle-steps its duration (or what is left of it) takes at the step it starts with; then,
-// once its first steps are measured, the time those particle-steps take at their rate. Both are
-// lower bounds when the step shrinks later (the snow speeds up or hardens), which the step watch
-// (app/step_watch.h) reports.
+// and particle-steps its duration (or what is left of it) takes at the step it starts with and,
+// for explicit MPM, the step it comes down to once its snow hardens on impact
+// (app/step_forecast.h); then, once its first steps are measured, the time those particle-steps
+// take at their rate, a range where a moving collider or cracks that open make it uncertain.
 #pragma once
 
 #include <optional>
 #include <string>
 
+#include "app/step_forecast.h"
 #include "sim/scene/scene.h"
 #include "sim/simulation.h"
 
@@ -39,7 +40,7 @@ class CostEstimate {
   std::string afterStep(const Simulation& simulation);
 
  private:
-  double stepCount() const;  // of the duration at the first step
+  double stepCount() const;  // of the duration, the step shrinking on impact
   std::string name_;
   std::string grid_;  // "10 x 12 cells of 0.01 m"
   double duration_;   // left to simulate
@@ -47,7 +48,9 @@ class CostEstimate {
   long steps_taken_;
   int particles_;
   double initial_step_;
-  bool open_cracks_;  // mpm.open_cracks: steps cost more once the snow stretches
+  std::optional<StepForecast> forecast_;
+  bool may_harden_further_ = false;  // a moving collider keeps compacting unbounded hardening
+  bool open_cracks_;                 // mpm.open_cracks: steps cost more once the snow stretches
   double particle_steps_;
   double seconds_after_first_ = -1;       // the steps' wall time after the first step
   double crack_seconds_after_first_ = 0;  // of it, in the crack passes

@@ -75,13 +75,13 @@ double CostEstimate::stepCount() const {
   // (not the -0 that ceil gives).
   if (!forecast_) return std::max(0.0, std::ceil(duration_ / initial_step_ - 1e-9));
   const double before_impact = std::clamp(forecast_->impact_time, 0.0, duration_);
-  return std::ceil(before_impact / initial_step_ +
-                   (duration_ - before_impact) / forecast_->hardened_step - 1e-9);
+  return std::max(0.0, std::ceil(before_impact / initial_step_ +
+                                 (duration_ - before_impact) / forecast_->hardened_step - 1e-9));
 }
 
 std::string CostEstimate::before() const {
   char hardened[160] = "";
-  if (forecast_ && forecast_->hardened_step < initial_step_)
+  if (forecast_ && forecast_->hardened_step < initial_step_ && forecast_->impact_time < duration_)
     std::snprintf(hardened, sizeof hardened,
                   ", %.2g s once it meets an obstacle at about %.2g m/s and hardens",
                   forecast_->hardened_step, forecast_->impact_speed);
@@ -117,12 +117,15 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   // first steps before an impact do not show (docs/snow-at-scale.md measures the factor), unless
   // the timed steps ran them from the first (a resumed run, snow stretched from the start).
   const bool cracks_ahead = open_cracks_ && !cracks_timed_;
-  const char* caveat =
-      solves         ? "; more if its solves take more iterations, as they do once the snow lands"
-      : cracks_ahead ? "; with mpm.open_cracks a step takes 2 to 4 times as long once any snow has "
-                       "stretched past J_P = 1"
-      : may_harden_further_ ? "; up to twice the steps as a moving collider compacts the snow"
-                            : "";
+  std::string caveat = solves ? "; more if the step shrinks or its solves take more iterations, "
+                                "as they do once the snow lands"
+                              : "";
+  if (cracks_ahead)
+    caveat +=
+        "; the range allows a step 2 to 4 times as long once any snow has stretched past "
+        "J_P = 1 (mpm.open_cracks)";
+  if (may_harden_further_)
+    caveat += "; and up to twice the steps as a moving collider compacts the snow";
   const double seconds_at_rate = particle_steps_ / rate;
   const double low = seconds_at_rate * (cracks_ahead ? 2 : 1);
   const double high = seconds_at_rate * (cracks_ahead ? 4 : 1) * (may_harden_further_ ? 2 : 1);
@@ -132,7 +135,7 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
   std::snprintf(text, sizeof text,
                 ": estimate: the steps take about %s (%s particle-steps a second over steps "
                 "2-%d%s); rendering and writing frames come on top",
-                span.c_str(), roughCount(rate).c_str(), 1 + measured_steps, caveat);
+                span.c_str(), roughCount(rate).c_str(), 1 + measured_steps, caveat.c_str());
   return name_ + text;
 }
 

@@ -114,7 +114,7 @@ std::optional<StepForecast> forecastStep(const Scene& scene, const StepLimit& st
         if (gap_ji > 0 && closing[a] < 0) impact_time = std::min(impact_time, gap_ji / -closing[a]);
       }
     }
-  forecast.impact_time = std::isfinite(impact_time) ? impact_time : 0;
+  forecast.impact_time = impact_time;  // infinite: nothing in its path
   const SnowMaterial& m = scene.material;
   const double fit = scene.dimension == 2 ? kHardenedWave2d : kHardenedWave3d;
   const double c0 = start.wave_speed / std::sqrt(start.hardening);

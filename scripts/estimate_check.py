@@ -32,10 +32,13 @@ def seconds_of(text):
 
 def estimate_of(output):
     """The step count and the seconds (low, high) the run's estimate lines give."""
-    steps = re.search(r"about ([0-9.]+)( thousand| million)? steps", output)
-    count = float(steps.group(1)) * {None: 1, " thousand": 1e3, " million": 1e6}[steps.group(2)]
+    steps = re.search(r"about ([0-9.]+)( thousand| million| billion)? steps", output)
     span = re.search(r"the steps take (?:about )?([0-9.e+-]+ (?:s|min|h))(?: to ([0-9.e+-]+ (?:s|min|h)))?",
                      output)
+    if not steps or not span:
+        return None
+    scale = {None: 1, " thousand": 1e3, " million": 1e6, " billion": 1e9}
+    count = float(steps.group(1)) * scale[steps.group(2)]
     low = seconds_of(span.group(1))
     high = seconds_of(span.group(2)) if span.group(2) else low
     return count, low, high
@@ -61,9 +64,14 @@ def main():
         if run.returncode != 0:
             print(f"{scene.stem}: exit {run.returncode}\n{run.stderr}", file=sys.stderr)
             return 2
-        steps_estimated, low, high = estimate_of(run.stdout + run.stderr)
+        estimate = estimate_of(run.stdout + run.stderr)
+        if estimate is None:
+            print(f"{scene.stem}: printed no estimate (a run of fewer than 11 steps)")
+            continue
+        steps_estimated, low, high = estimate
         record = json.loads((out / "run.json").read_text())
-        actual = sum(s["seconds"] for s in record["stages"] if s["stage"] not in DRAWING_STAGES)
+        actual = max(1e-9, sum(s["seconds"] for s in record["stages"]
+                               if s["stage"] not in DRAWING_STAGES))
         # Within the range is right; outside it, off by the factor to its nearer end.
         ratio = high / actual if actual > high else low / actual if actual < low else 1.0
         off = max(ratio, 1 / ratio)

@@ -89,4 +89,13 @@ TEST(StepForecast, TheEstimatedStepsHoldForAShortSmash) {
   EXPECT_GT(taken, 3 * 0.15 / firstStep(loadScene(scene("mpm_snowball_wall")), 3.04).step);
 }
 
+// A run of no duration takes no step, hardened or not (not "-0").
+TEST(StepForecast, NoDurationTakesNoStep) {
+  const Result r = runSnowsim("run " + scene("mpm_snowball_wall") + " -o " +
+                              freshDir("forecast_zero").string() +
+                              " --estimate --set time.duration=0");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("about 0 steps, 0 particle-steps"), std::string::npos) << r.output;
+}
+
 }  // namespace

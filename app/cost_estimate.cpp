@@ -71,12 +71,14 @@ CostEstimate::CostEstimate(const Scene& scene, int particles, const StepLimit& s
 }
 
 double CostEstimate::stepCount() const {
-  // A duration a round-off above a whole number of steps takes no extra step; zero takes none
-  // (not the -0 that ceil gives).
-  if (!forecast_) return std::max(0.0, std::ceil(duration_ / initial_step_ - 1e-9));
-  const double before_impact = std::clamp(forecast_->impact_time, 0.0, duration_);
-  return std::max(0.0, std::ceil(before_impact / initial_step_ +
-                                 (duration_ - before_impact) / forecast_->hardened_step - 1e-9));
+  // The first step until the impact (without a forecast, throughout), the hardened one after. A
+  // duration a round-off above a whole number of steps takes no extra step; zero takes none (not
+  // the -0 that ceil gives).
+  const double before_impact =
+      forecast_ ? std::clamp(forecast_->impact_time, 0.0, duration_) : duration_;
+  const double after_impact =
+      forecast_ ? (duration_ - before_impact) / forecast_->hardened_step : 0;
+  return std::max(0.0, std::ceil(before_impact / initial_step_ + after_impact - 1e-9));
 }
 
 std::string CostEstimate::before() const {

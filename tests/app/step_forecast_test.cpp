@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "sim/mpm/snow_material.h"
 #include "tests/support/run_snowsim.h"
 
 namespace {
@@ -21,10 +22,9 @@ using namespace snowsim_test;
 
 // The scene's first step as the solver gives it: unhardened snow at its initial speed.
 StepLimit firstStep(const snowsim::Scene& scene, double speed) {
-  const double E = scene.material.E0, nu = scene.material.nu;
-  const double modulus = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu));  // lambda + 2 mu
   StepLimit limit;
-  limit.wave_speed = std::sqrt(modulus / scene.bodies[0].density);
+  limit.wave_speed =
+      snowsim::pWaveSpeed(snowsim::unhardenedLame<double>(scene.material), scene.bodies[0].density);
   limit.particle_speed = speed;
   limit.step = scene.mpm.cfl * scene.cell_size / (limit.wave_speed + speed);
   return limit;
@@ -91,9 +91,9 @@ TEST(StepForecast, TheEstimatedStepsHoldForAShortSmash) {
 
 // A run of no duration takes no step, hardened or not (not "-0").
 TEST(StepForecast, NoDurationTakesNoStep) {
-  const Result r = runSnowsim("run " + scene("mpm_snowball_wall") + " -o " +
-                              freshDir("forecast_zero").string() +
-                              " --estimate --set time.duration=0");
+  const Result r =
+      runSnowsim("run " + scene("mpm_snowball_wall") + " -o " + freshDir("forecast_zero").string() +
+                 " --estimate --set time.duration=0");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("about 0 steps, 0 particle-steps"), std::string::npos) << r.output;
 }

@@ -37,7 +37,7 @@ Mat<D> collideAndConstrain(const std::vector<Collider<D>>& colliders, const Vec<
   Mat<D> free = Mat<D>::Identity();
   int contacts = 0;
   for (const Collider<D>& c : colliders) {
-    if (c.phi(x) > 0) continue;
+    if (c.phi(x) > -c.grid_inset) continue;
     const Vec<D> n = c.outwardNormal(x);
     const Vec<D> v_c = c.surfaceVelocity(x);
     const Vec<D> v_rel = v - v_c;

@@ -40,6 +40,10 @@ struct Collider {
   Real friction = 0;
   int shape_dims = D;  // axes the shape depends on; a 2D shape in a 3D slab is extruded along z
   RigidMotion motion;  // where placeAt puts the collider (at rest for the domain walls)
+  // How far inside its surface the grid's nodes meet it (m). A node's velocity reaches particles
+  // a kernel's width away, so nodes stopped on the surface hold snow about a cell above it; the
+  // particles themselves meet the surface (MpmSolver's particle collision and pushOut).
+  Real grid_inset = 0;
 
   // Signed distance: negative inside the solid.
   Real phi(const Vec<D>& x) const;
@@ -50,6 +54,11 @@ struct Collider {
   // Applies the collision to v at x when x is inside or on the collider (phi <= 0).
   void collide(const Vec<D>& x, Vec<D>& v) const {
     if (phi(x) > 0) return;
+    v = collideVelocity<D>(v, outwardNormal(x), surfaceVelocity(x), type, friction);
+  }
+  // Applies the collision to a grid node's v at x when x lies grid_inset or deeper inside.
+  void collideNode(const Vec<D>& x, Vec<D>& v) const {
+    if (phi(x) > -grid_inset) return;
     v = collideVelocity<D>(v, outwardNormal(x), surfaceVelocity(x), type, friction);
   }
   // Moves x onto the surface if it ended inside.
@@ -67,9 +76,9 @@ struct Collider {
 template <int D>
 Eigen::AlignedBox<Real, D> boundingBox(const Collider<D>& collider, Real margin);
 
-// Applies every collider to the grid velocity v at node x (as Collider::collide does) and returns
-// the projection onto the velocity components the collisions left free, for a semi-implicit solve
-// that must hold the collided components (Stomakhin et al. 2013, section 9: collisions on v*
+// Applies every collider to the grid velocity v at node x (as Collider::collideNode does) and
+// returns the projection onto the velocity components the collisions left free, for a semi-implicit
+// solve that must hold the collided components (Stomakhin et al. 2013, section 9: collisions on v*
 // first): identity for a free node, I - n n^T where a slip or sliding contact fixes the normal
 // component, zero where the node sticks (sticky, static friction, or two contacts).
 template <int D>

@@ -82,6 +82,12 @@ std::array<double, 3> LevelSet::solidUpper() const {
   return upper;
 }
 
+double LevelSet::depth() const {
+  return values_.empty()
+             ? 0
+             : std::max(0.0, -double(*std::min_element(values_.begin(), values_.end())));
+}
+
 LevelSet::Position LevelSet::locate(const std::array<double, 3>& x) const {
   Position at;
   for (int a = 0; a < 3; ++a) {

@@ -306,11 +306,11 @@ void MpmSolver<D, T>::collideAtNode(int k, V& velocity) const {
   if (near.empty()) return;
   if constexpr (double_precision) {
     for (const int c : near)
-      if (screens_.mayTouch(c, x)) colliders_[c].collide(x, velocity);
+      if (screens_.mayTouch(c, x)) colliders_[c].collideNode(x, velocity);
   } else {  // the colliders work in double
     Vec<D> v = velocity.template cast<Real>();
     for (const int c : near)
-      if (screens_.mayTouch(c, x)) colliders_[c].collide(x, v);
+      if (screens_.mayTouch(c, x)) colliders_[c].collideNode(x, v);
     velocity = v.template cast<T>();
   }
 }

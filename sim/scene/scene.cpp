@@ -231,6 +231,7 @@ MpmParams parseMpm(const Json* j, const std::string& file, int dimension) {
     f.fail("precision",
            "\"float\" runs only mpm.integrator \"explicit\"; set it (or --precision) to "
            "\"double\" for the semi-implicit integrator");
+  p.collider_inset = f.number("collider_inset", p.collider_inset, 0, 0.2);
   if (const Json* walls = f.object("walls", false)) {
     JsonFields w(*walls, "mpm.walls", file);
     p.wall_type = parseColliderType(w, "type", "separating");

@@ -85,6 +85,12 @@ struct MpmParams {
   MpmPrecision precision = MpmPrecision::Double;      // float: explicit integrator only
   ColliderType wall_type = ColliderType::Separating;  // the domain walls
   double wall_friction = 0.2;
+  // Cells inside a collider's surface at which the grid's nodes meet it (Collider::grid_inset).
+  // Snow comes to rest about 1.2 cells above the highest node a collider stops: a node on the
+  // surface (a domain wall, a ground on a plane of nodes) holds it that far up, and one left free
+  // lowers it to 0.2 cells. Beyond about 0.2 cells, snow on a surface between two planes of nodes
+  // would rest below the grid's support and be pressed into the collider. 0 is the paper's rule.
+  double collider_inset = 0.1;
   AutoSleep auto_sleep;
   // Two velocities a node across damaged snow and failed snow as loose grains (sim/mpm/
   // crack_opening.h): needs material.fracture_strain, the MLS transfer, the explicit integrator

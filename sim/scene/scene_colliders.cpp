@@ -23,6 +23,23 @@ double meshMargin(const Scene& scene) {
   return 3 * scene.cell_size;
 }
 
+// How far inside the collider the grid's nodes meet it: the scene's inset, at most half the
+// depth of a solid collider so that the grid still sees a thin one.
+template <int D>
+Real gridInset(const Scene& scene, const Collider<D>& c) {
+  const Real inset = scene.mpm.collider_inset * scene.cell_size;
+  switch (c.shape) {
+    case ColliderShape::Sphere:
+      return std::min(inset, c.radius / 2);
+    case ColliderShape::Box:
+      return std::min(inset, c.half_size.head(c.shape_dims).minCoeff() / 2);
+    case ColliderShape::Mesh:
+      return std::min(inset, c.level_set->depth() / 2);
+    default:  // a half space or a drum's wall: solid without end
+      return inset;
+  }
+}
+
 }  // namespace
 
 double meshColliderVoxel(const Scene& scene, const ColliderParams& collider) {
@@ -42,6 +59,8 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
       const bool extruded_axis = a >= scene.authored_dimension;
       wall.type = extruded_axis ? ColliderType::Slip : scene.mpm.wall_type;
       wall.friction = extruded_axis ? 0 : scene.mpm.wall_friction;
+      // A 2D scene's slab stays uniform along its depth only if its end walls hold their nodes.
+      wall.grid_inset = extruded_axis ? 0 : gridInset(scene, wall);
       colliders.push_back(wall);
     }
   const int dims = std::min(D, scene.authored_dimension);
@@ -59,6 +78,7 @@ std::vector<Collider<D>> makeColliders(const Scene& scene) {
                                                      meshVoxelAsked(scene), meshMargin(scene));
     c.type = p.type;
     c.friction = p.friction;
+    c.grid_inset = gridInset(scene, c);
     const RigidMotionDescription& motion = p;
     c.motion = RigidMotion(D > dims ? centredInSlab(motion, extent[D - 1]) : motion);
     c.placeAt(0);

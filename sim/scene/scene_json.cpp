@@ -52,6 +52,7 @@ Json mpmJson(const MpmParams& p) {
       {"adaptive_dt", p.adaptive_dt},
       {"initial_volume", p.initial_volume == InitialVolume::Lattice ? "lattice" : "grid_density"},
       {"walls", {{"type", colliderTypeName(p.wall_type)}, {"friction", p.wall_friction}}},
+      {"collider_inset", p.collider_inset},
       {"auto_sleep",
        {{"enabled", p.auto_sleep.enabled},
         {"speed", p.auto_sleep.speed},

@@ -79,8 +79,8 @@ THREADED_TEST(Cli, RunWritesPlyFramesAndASummary) {
 TEST(Cli, RunCountsTheSemiImplicitSolves) {
   const fs::path out = freshDir("semi");
   const std::string run = "run " + scene("study_smash_3d") + " -o " + out.string() +
-                          " --no-png --no-mp4 --no-ply --set time.duration=0.02" +
-                          " --set mpm.integrator=semi_implicit";
+                          " --no-png --no-mp4 --no-ply --set time.duration=0.03" +
+                          " --set mpm.integrator=semi_implicit";  // the ball meets the wall
   Result r = runSnowsim(run);
   ASSERT_EQ(r.code, 0) << r.output;
   auto solves = nlohmann::json::parse(std::ifstream(out / "run.json"))["implicit_solves"];
@@ -332,8 +332,8 @@ TEST(Cli, RunWarnsWhenTheStepCollapses) {
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
   EXPECT_FALSE(runSummary(out).contains("step_collapse"));
 
-  // A ball thrown at the ground at 12 m/s: the snow it compacts hardens.
-  r = runSnowsim(run + "--set time.duration=0.04 --set 'bodies[0].velocity=[0,-12]'");
+  // A ball thrown at the ground at 16 m/s: the snow it compacts hardens.
+  r = runSnowsim(run + "--set time.duration=0.04 --set 'bodies[0].velocity=[0,-16]'");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("the time step fell below a quarter of the"), std::string::npos)
       << r.output;

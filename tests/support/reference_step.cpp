@@ -69,7 +69,7 @@ void referenceStep(ReferenceState<D>& s, Real dt) {
     }
     s.grid_v[i] = s.grid_v[i] / s.grid_m[i] + dt * s.g;
     const Vec<D> x_i = s.grid.position(s.grid.coords(i));
-    for (const Collider<D>& c : s.colliders) c.collide(x_i, s.grid_v[i]);
+    for (const Collider<D>& c : s.colliders) c.collideNode(x_i, s.grid_v[i]);
   }
 
   // G2P, deformation, plasticity, particle collisions, advection (section 4 steps 7-10).

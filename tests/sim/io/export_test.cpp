@@ -295,8 +295,10 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
   EXPECT_EQ(blender["frames"]["3"]["attributes"]["id"]["type"], "INT");
   EXPECT_EQ(blender["frames"]["3"]["attributes"]["velocity"]["type"], "FLOAT_VECTOR");
 
-  // The volume at the last frame: its file, its grids, and the particles' extent grown by the
-  // quadratic B-spline's reach (1.5 cells), within one voxel.
+  // The volume at the last frame: its file, its grids, and the voxels the particles' quadratic
+  // B-splines reach, from floor(lo / h - 0.5) to floor(hi / h - 0.5) + 2 along each axis.
+  // Blender's mesh of them runs from the lower face of the lowest voxel to one voxel past the
+  // highest's upper face.
   const auto& volume = blender["volume"];
   EXPECT_EQ(volume["error"], "");
   EXPECT_NE(volume["file"].get<std::string>().find("frame_00003.vdb"), std::string::npos);
@@ -308,8 +310,11 @@ TEST(Export, BlenderLoadsTheRunAsOneAnimatedObjectAndAVolume) {
   for (int a = 0; a < 3; ++a) {
     float lo = last.position[0][a], hi = lo;
     for (const auto& p : last.position) lo = std::min(lo, p[a]), hi = std::max(hi, p[a]);
-    EXPECT_NEAR(volume["density_min"][a].get<double>(), lo - 1.5 * h, h) << "axis " << a;
-    EXPECT_NEAR(volume["density_max"][a].get<double>(), hi + 1.5 * h, h) << "axis " << a;
+    const double lowest = std::floor(lo / h - 0.5), highest = std::floor(hi / h - 0.5) + 2;
+    EXPECT_NEAR(volume["density_min"][a].get<double>(), (lowest - 0.5) * h, 0.1 * h)
+        << "axis " << a;
+    EXPECT_NEAR(volume["density_max"][a].get<double>(), (highest + 1.5) * h, 0.1 * h)
+        << "axis " << a;
   }
 }
 

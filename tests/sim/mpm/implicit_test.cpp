@@ -283,6 +283,8 @@ template <int D>
 void checkBetaZero() {
   Json j = ballScene(D);
   j["mpm"]["adaptive_dt"] = false;
+  // Thrown down, to reach the ground within the steps.
+  j["bodies"][0]["velocity"] = D == 2 ? Json::array({0, -1}) : Json::array({0, -1, 0});
   Json jexp = j;
   jexp["mpm"]["integrator"] = "explicit";
   j["mpm"]["beta"] = 0;

@@ -231,6 +231,36 @@ TEST(Mpm, NoParticleEndsInsideACollider) {
   }
 }
 
+// The lowest particle of snow come to rest on the floor, in cells above it.
+template <int D>
+Real restingHeight(Json j) {
+  auto s = makeSolver<D>(j);
+  run(s, 0.6);
+  Real lowest = s.grid().extent()[1];
+  for (const Vec<D>& x : s.particles().x) lowest = std::min(lowest, x[1]);
+  return lowest / s.grid().h;
+}
+
+// Snow dropped on the floor rests on it: its grid nodes meet the floor a tenth of a cell inside
+// (mpm.collider_inset), so the snow's lowest particles lie within a quarter cell of it, in 2D and
+// 3D; nodes stopped on the floor itself (the paper's rule, inset 0) hold it over a cell up.
+TEST(Mpm, SnowRestsOnTheFloorNotACellAboveIt) {
+  Json flat = baseScene();
+  Json deep = Json::parse(R"({
+    "name": "t", "dimension": 3, "solver": "mpm",
+    "grid": {"cells": [8, 8, 8], "cell_size": 0.01},
+    "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
+    "particles_per_cell": 8,
+    "bodies": [{"shape": "box", "center": [0.04, 0.04, 0.04], "size": [0.03, 0.03, 0.03]}]
+  })");
+  EXPECT_LT(restingHeight<2>(flat), 0.25);
+  EXPECT_LT(restingHeight<3>(deep), 0.25);
+  flat["mpm"]["collider_inset"] = 0;
+  deep["mpm"]["collider_inset"] = 0;
+  EXPECT_GT(restingHeight<2>(flat), 1);
+  EXPECT_GT(restingHeight<3>(deep), 1);
+}
+
 TEST(Mpm, SnapshotsCarryTheCollidersWhereTheyAre) {
   // A moving box and a sphere; the snapshot draws them where they are at its time, a 2D scene's
   // colliders at z = 0 and, run in 3D, through the slab.

@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <tuple>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "sim/core/rigid_motion.h"
 
 namespace snowsim {
 
@@ -46,9 +50,50 @@ Box bodyBox(const Body& body) {
   return {vector(body.center), vector(body.center)};
 }
 
+// A body as the forecast moves it: its box at the start, the velocity the box moves at, and the
+// fastest speed of its snow.
+struct Mover {
+  Box box;
+  Vector velocity;
+  double fastest = 0;
+};
+
+Mover moverOf(const Body& body) {
+  if (body.shape != BodyShape::Points || !body.points || body.points->size() == 0)
+    return {bodyBox(body), vector(body.velocity), vector(body.velocity).norm()};
+  // Another run's frame: the box of its particles, moving at their mean velocity.
+  const Snapshot& points = *body.points;
+  Mover m{{Vector::Constant(std::numeric_limits<double>::infinity()),
+           Vector::Constant(-std::numeric_limits<double>::infinity())},
+          Vector::Zero()};
+  for (int i = 0; i < points.size(); ++i) {
+    const Vector x = Eigen::Vector3f(points.position[i].data()).cast<double>();
+    const Vector v = Eigen::Vector3f(points.velocity[i].data()).cast<double>();
+    m.box.lo = m.box.lo.cwiseMin(x);
+    m.box.hi = m.box.hi.cwiseMax(x);
+    m.velocity += v / points.size();
+    m.fastest = std::max(m.fastest, v.norm());
+  }
+  return m;
+}
+
 bool moves(const ColliderParams& c) {
   return !c.keyframes.empty() || vector(c.velocity).norm() > 0 ||
          vector(c.angular_velocity).norm() > 0;
+}
+
+// When a gap closes at speed `speed` and acceleration `accel` towards it: gap = s t + a t^2 / 2;
+// infinite if it never does.
+double timeToClose(double gap, double speed, double accel) {
+  if (gap <= 0) return 0;
+  const double disc = speed * speed + 2 * accel * gap;
+  if (accel != 0 && disc >= 0) {
+    const double t = (std::sqrt(disc) - speed) / accel;
+    if (t >= 0) return t;
+  } else if (accel == 0 && speed > 0) {
+    return gap / speed;
+  }
+  return std::numeric_limits<double>::infinity();
 }
 
 // The earliest time a body (box b, velocity v) reaches the domain's bounds along an axis it moves
@@ -56,21 +101,91 @@ bool moves(const ColliderParams& c) {
 double timeToBounds(const Box& b, const Vector& v, const Vector& gravity, const Vector& extent,
                     int dimension) {
   double earliest = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < dimension; ++a) {
-    // x(t) = x0 + v t + g t^2 / 2 reaching 0 from lo or the extent from hi.
-    for (const auto& [gap, speed, accel] : {std::tuple{b.lo[a], -v[a], -gravity[a]},
-                                            std::tuple{extent[a] - b.hi[a], v[a], gravity[a]}}) {
-      if (gap <= 0) return 0;
-      const double disc = speed * speed + 2 * accel * gap;
-      if (accel != 0 && disc >= 0) {
-        const double t = (std::sqrt(disc) - speed) / accel;
-        if (t >= 0) earliest = std::min(earliest, t);
-      } else if (accel == 0 && speed > 0) {
-        earliest = std::min(earliest, gap / speed);
-      }
-    }
-  }
+  for (int a = 0; a < dimension; ++a)
+    earliest = std::min({earliest, timeToClose(b.lo[a], -v[a], -gravity[a]),
+                         timeToClose(extent[a] - b.hi[a], v[a], gravity[a])});
   return earliest;
+}
+
+// An obstacle inside the domain that stays where it is: a half space (a plane and its outward
+// normal) or the world box of a sphere, a box or a mesh. Moving colliders and drums are left to
+// the driven forecast.
+struct Obstacle {
+  bool plane = false;
+  Vector point, normal;  // plane
+  Box box;               // otherwise
+};
+
+std::optional<Obstacle> obstacleOf(const ColliderParams& c) {
+  if (moves(c) || c.shape == ColliderShape::Drum) return std::nullopt;
+  const Eigen::Matrix3d turn = RigidMotion(c).at(0).rotation.toRotationMatrix();
+  const Vector at = vector(c.position);
+  Obstacle o;
+  if (c.shape == ColliderShape::HalfSpace) {
+    o.plane = true;
+    o.point = at;
+    o.normal = (turn * vector(c.normal)).normalized();
+    return o;
+  }
+  // The local box, turned: its world box spans |R| times its half size about its centre.
+  Box local;
+  if (c.shape == ColliderShape::Sphere) {
+    local = {Vector::Constant(-c.radius), Vector::Constant(c.radius)};
+  } else if (c.shape == ColliderShape::Box) {
+    local = {-vector(c.size) / 2, vector(c.size) / 2};
+  } else {
+    const auto b = c.mesh.placedAt({0, 0, 0}).bounds();
+    local = {{b[0][0], b[0][1], b[0][2]}, {b[1][0], b[1][1], b[1][2]}};
+  }
+  const Vector centre = at + turn * (local.lo + local.hi) / 2;
+  const Vector half = turn.cwiseAbs() * (local.hi - local.lo) / 2;
+  o.box = {centre - half, centre + half};
+  return o;
+}
+
+// How far a body's box lies from an obstacle along axis a (or along the plane's normal), when the
+// obstacle is in its way: the boxes overlap across the other axes. Infinite when it is not.
+double gapAlong(const Box& b, const Obstacle& o, int a, int dimension, bool ahead) {
+  constexpr double none = std::numeric_limits<double>::infinity();
+  for (int other = 0; other < dimension; ++other)
+    if (other != a && (b.hi[other] < o.box.lo[other] || b.lo[other] > o.box.hi[other])) return none;
+  const double gap = ahead ? o.box.lo[a] - b.hi[a] : b.lo[a] - o.box.hi[a];
+  return gap >= 0 ? gap : none;
+}
+
+// The least distance from the plane of any corner of b (negative where a corner is behind it).
+double gapToPlane(const Box& b, const Obstacle& o, int dimension) {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int corner = 0; corner < (1 << dimension); ++corner) {
+    Vector x = b.lo;
+    for (int a = 0; a < dimension; ++a)
+      if (corner & (1 << a)) x[a] = b.hi[a];
+    double distance = 0;
+    for (int a = 0; a < dimension; ++a) distance += o.normal[a] * (x[a] - o.point[a]);
+    nearest = std::min(nearest, distance);
+  }
+  return nearest;
+}
+
+// When the body meets the obstacle and how far it falls to it (infinite where it does not lie
+// below).
+std::pair<double, double> meeting(const Mover& m, const Obstacle& o, const Vector& gravity,
+                                  const Vector& down, int dimension) {
+  constexpr double none = std::numeric_limits<double>::infinity();
+  if (o.plane) {
+    const double gap = std::max(0.0, gapToPlane(m.box, o, dimension));
+    const double facing = -o.normal.dot(down);
+    return {timeToClose(gap, -o.normal.dot(m.velocity), -o.normal.dot(gravity)),
+            facing > 0 ? gap / facing : none};
+  }
+  double earliest = none, fall = none;
+  for (int a = 0; a < dimension; ++a)
+    for (const bool ahead : {true, false}) {
+      const double gap = gapAlong(m.box, o, a, dimension, ahead), sign = ahead ? 1 : -1;
+      earliest = std::min(earliest, timeToClose(gap, sign * m.velocity[a], sign * gravity[a]));
+      if (sign * down[a] == 1) fall = std::min(fall, gap);
+    }
+  return {earliest, fall};
 }
 
 }  // namespace
@@ -85,28 +200,37 @@ std::optional<StepForecast> forecastStep(const Scene& scene, const StepLimit& st
   const Vector extent = vector(scene.extent()), gravity = vector(scene.gravity);
   const double g = gravity.norm();
   const Vector down = g > 0 ? Vector(gravity / g) : Vector::Zero();
+  std::vector<Obstacle> obstacles;
+  for (const ColliderParams& c : scene.colliders)
+    if (const auto o = obstacleOf(c)) obstacles.push_back(*o);
   double impact_time = std::numeric_limits<double>::infinity();
   std::vector<Box> boxes;
   for (const Body& body : scene.bodies) {
-    const Box b = bodyBox(body);
+    const Mover m = moverOf(body);
+    const Box& b = m.box;
     boxes.push_back(b);
-    // The height it falls to the domain's floor; a moving collider can lift snow to the top.
+    // The height it falls to the domain's floor or an obstacle under it; a moving collider can
+    // lift snow to the top.
     double fall = 0;
     for (int a = 0; a < scene.dimension; ++a)
       fall += forecast.driven ? std::abs(down[a]) * extent[a]
               : down[a] <= 0  ? -down[a] * b.lo[a]
                               : down[a] * (extent[a] - b.hi[a]);
+    double time = timeToBounds(b, m.velocity, gravity, extent, scene.dimension);
+    for (const Obstacle& o : obstacles) {
+      const auto [meets, falls] = meeting(m, o, gravity, down, scene.dimension);
+      time = std::min(time, meets);
+      if (!forecast.driven) fall = std::min(fall, falls);
+    }
     fall = std::max(0.0, fall);
-    const Vector velocity = vector(body.velocity);
-    const double v = std::sqrt(velocity.squaredNorm() + 2 * g * fall);
+    const double v = std::sqrt(m.fastest * m.fastest + 2 * g * fall);
     forecast.impact_speed = std::max(forecast.impact_speed, v);
-    impact_time =
-        std::min(impact_time, timeToBounds(b, velocity, gravity, extent, scene.dimension));
+    impact_time = std::min(impact_time, time);
   }
   // Two bodies closing on each other meet when the gap between their boxes closes.
   for (size_t i = 0; i < boxes.size(); ++i)
     for (size_t j = i + 1; j < boxes.size(); ++j) {
-      const Vector closing = vector(scene.bodies[i].velocity) - vector(scene.bodies[j].velocity);
+      const Vector closing = moverOf(scene.bodies[i]).velocity - moverOf(scene.bodies[j]).velocity;
       for (int a = 0; a < scene.dimension; ++a) {
         const double gap_ij = boxes[j].lo[a] - boxes[i].hi[a],
                      gap_ji = boxes[i].lo[a] - boxes[j].hi[a];

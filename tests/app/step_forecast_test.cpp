@@ -37,8 +37,8 @@ TEST(StepForecast, ABallThrownAtAWallHardensByItsImpactSpeed) {
   ASSERT_TRUE(forecast);
   // 3 m/s along x and 0.5 up, the ball's bottom 6 cm above the floor it could fall to.
   EXPECT_NEAR(forecast->impact_speed, std::sqrt(9 + 0.25 + 2 * 9.81 * 0.06), 1e-9);
-  // Its right side at x = 0.12 reaches the domain's end at 0.32 first.
-  EXPECT_NEAR(forecast->impact_time, 0.2 / 3, 1e-9);
+  // Its right side at x = 0.12 reaches the wall's face at 0.28 first.
+  EXPECT_NEAR(forecast->impact_time, 0.16 / 3, 1e-9);
   EXPECT_FALSE(forecast->driven);
   const double hardened_wave = 1.3 * forecast->impact_speed / wall.material.theta_c;
   EXPECT_NEAR(forecast->hardened_step,
@@ -70,6 +70,53 @@ TEST(StepForecast, OnlyForAnExplicitAdaptiveMpmStep) {
   ASSERT_TRUE(driven);
   EXPECT_TRUE(driven->driven);
   EXPECT_NEAR(driven->impact_speed, std::sqrt(2 * 9.81 * drum.extent()[1]), 1e-9);
+}
+
+// A ball falling onto a box, or a tilted plane, inside the domain meets it before the floor: it
+// falls the gap to it, and no further.
+TEST(StepForecast, ABallMeetsAColliderInsideTheDomainBeforeTheFloor) {
+  // The ball's bottom at 0.115 m, the box's top at 0.065 m: a 5 cm fall.
+  const snowsim::Scene on_box = loadScene(
+      scene("mpm_snowball_drop_3d"),
+      {R"(colliders=[{"shape": "box", "position": [0.1, 0.04, 0.1], "size": [0.1, 0.05, 0.1]}])"});
+  const auto box = forecastStep(on_box, firstStep(on_box, 0));
+  ASSERT_TRUE(box);
+  EXPECT_NEAR(box->impact_speed, std::sqrt(2 * 9.81 * 0.05), 1e-9);
+  EXPECT_NEAR(box->impact_time, std::sqrt(2 * 0.05 / 9.81), 1e-9);
+  // A box off to the side is not in its way: the floor, 11.5 cm down, is.
+  const snowsim::Scene beside = loadScene(
+      scene("mpm_snowball_drop_3d"),
+      {R"(colliders=[{"shape": "box", "position": [0.03, 0.04, 0.1], "size": [0.04, 0.05, 0.1]}])"});
+  const auto floor = forecastStep(beside, firstStep(beside, 0));
+  ASSERT_TRUE(floor);
+  EXPECT_NEAR(floor->impact_speed, std::sqrt(2 * 9.81 * 0.115), 1e-9);
+  // A plane through the domain's centre, its normal tilted 30 degrees from up: the ball's lowest
+  // corner (0.055, 0.115) lies d above it along the normal, d / cos 30 over it along gravity.
+  const snowsim::Scene slope = loadScene(
+      scene("mpm_snowball_drop_3d"),
+      {R"(colliders=[{"shape": "half_space", "position": [0.1, 0.04, 0.1], "normal": [0.5, 0.8660254037844386, 0]}])"});
+  const auto tilted = forecastStep(slope, firstStep(slope, 0));
+  ASSERT_TRUE(tilted);
+  const double d = 0.5 * (0.055 - 0.1) + 0.8660254037844386 * (0.115 - 0.04);
+  EXPECT_NEAR(tilted->impact_speed, std::sqrt(2 * 9.81 * d / 0.8660254037844386), 1e-6);
+}
+
+// Points from another run's frame move at their mean velocity and meet as fast as their fastest.
+TEST(StepForecast, PointsBodiesMoveAsTheirFrameDoes) {
+  const std::string out = freshDir("forecast_points").string();
+  const Result r = runSnowsim("run " + scene("mpm_snowball_drop_3d") + " -o " + out +
+                              " --no-png --no-mp4 --set time.duration=0.02 --set time.fps=50");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const snowsim::Scene points =
+      loadScene(scene("mpm_snowball_drop_3d"),
+                {R"(bodies=[{"shape": "points", "file": ")" + out + R"(/frame_00001.ply"}])"});
+  const auto forecast = forecastStep(points, firstStep(points, 0.2));
+  ASSERT_TRUE(forecast);
+  // After 0.02 s of falling, about 0.2 m/s down, 2 mm lower: its fall is that of the ball from
+  // rest, less the 2 mm.
+  EXPECT_NEAR(forecast->impact_speed, std::sqrt(2 * 9.81 * 0.115), 0.01);
+  EXPECT_GT(forecast->impact_time, 0.1);
+  EXPECT_LT(forecast->impact_time, std::sqrt(2 * 0.115 / 9.81));
 }
 
 // The steps the run says it will take, against the steps it took: within a factor of two, where

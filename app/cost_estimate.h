@@ -31,6 +31,8 @@ class CostEstimate {
 
   // The step the run starts with.
   double initialStep() const { return initial_step_; }
+  // The step after impact, its impact time counted from where the run starts or resumes.
+  const std::optional<StepForecast>& forecast() const { return forecast_; }
 
   // "snowball_drop: 25 particles, 10 x 12 cells of 0.01 m; 1 s simulated at a first step of
   // 0.001 s: about 1000 steps, 25 thousand particle-steps"

@@ -1,5 +1,6 @@
 #include "app/progress.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace snowsim {
@@ -10,6 +11,18 @@ Progress::Progress(int frames, double duration, bool terminal, std::FILE* out)
 void Progress::resumedAt(const Simulation& simulation) {
   steps_then_ = steps_at_start_ = simulation.steps();
   time_then_ = time_at_start_ = simulation.time();
+}
+
+void Progress::expectHardening(double impact_time, double hardened_step) {
+  impact_time_ = impact_time;
+  hardened_step_ = hardened_step;
+}
+
+double stepsLeft(double time, double duration, double step, double impact_time,
+                 double hardened_step) {
+  if (hardened_step <= 0 || time >= impact_time || impact_time >= duration)
+    return (duration - time) / step;
+  return (impact_time - time) / step + (duration - impact_time) / std::min(step, hardened_step);
 }
 
 std::string Progress::line(int frame, const Simulation& simulation) {
@@ -27,10 +40,10 @@ std::string Progress::line(int frame, const Simulation& simulation) {
   if (sleep.particles > 0)  // auto-sleep is on: the share asleep after the last step
     n += std::snprintf(text + n, sizeof text - n, "  %.0f%% asleep",
                        100.0 * double(sleep.asleep_now) / double(sleep.particles));
-  // The rest at the simulated-per-wall rate so far: a rough guess while the step size changes.
-  if (time > time_at_start_ && time < duration_)
+  if (dt_ > 0 && steps > steps_at_start_ && time < duration_)
     std::snprintf(text + n, sizeof text - n, "  ETA %.0f s",
-                  (duration_ - time) * wall / (time - time_at_start_));
+                  stepsLeft(time, duration_, dt_, impact_time_, hardened_step_) * wall /
+                      double(steps - steps_at_start_));
   return text;
 }
 

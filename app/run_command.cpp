@@ -587,6 +587,9 @@ class FrameLoop {
                  options.checkpoint_minutes.value_or(
                      plan.scene.output.checkpoint_minutes.value_or(kDefaultCheckpointMinutes))) {
     if (saved) progress_.resumedAt(simulation);
+    if (const auto& forecast = estimate_.forecast())
+      progress_.expectHardening(simulation.time() + std::max(0.0, forecast->impact_time),
+                                forecast->hardened_step);
   }
 
   // Returns the frames written, those of the sessions before included.

@@ -16,8 +16,12 @@ namespace snowsim {
 
 class CostEstimate {
  public:
-  // Steps timed for the rate, after the first (which also sets up the solver's arrays and pages).
+  // Steps timed for the rate, after the first (which also sets up the solver's arrays and pages):
+  // at least measured_steps and measured_seconds of them, so that a small scene's rate is not a
+  // few milliseconds' noise, and at most most_measured_steps.
   static constexpr int measured_steps = 10;
+  static constexpr double measured_seconds = 0.1;
+  static constexpr int most_measured_steps = 100;
 
   // Before the first step, which is time.dt or the stable step of `start`, whichever is smaller.
   // A resumed run gives the time it had simulated and the steps it had taken: the estimate is of
@@ -37,8 +41,8 @@ class CostEstimate {
   // "snowball_drop: 25 particles, 10 x 12 cells of 0.01 m; 1 s simulated at a first step of
   // 0.001 s: about 1000 steps, 25 thousand particle-steps"
   std::string before() const;
-  // Between steps: once measured_steps steps after the first have run, the time estimate and the
-  // rate it is from (empty before that, and after it was given once).
+  // Between steps: once the steps after the first are timed, the time estimate and the rate it
+  // is from (empty before that, and after it was given once).
   std::string afterStep(const Simulation& simulation);
 
  private:
@@ -52,6 +56,7 @@ class CostEstimate {
   double initial_step_;
   std::optional<StepForecast> forecast_;
   bool may_harden_further_ = false;  // a moving collider keeps compacting unbounded hardening
+  bool mesh_collider_ = false;       // steps in contact with a mesh cost more than in the air
   bool open_cracks_;                 // mpm.open_cracks: steps cost more once the snow stretches
   double particle_steps_;
   double seconds_after_first_ = -1;       // the steps' wall time after the first step

@@ -183,7 +183,7 @@ std::pair<double, double> meeting(const Mover& m, const Obstacle& o, const Vecto
     for (const bool ahead : {true, false}) {
       const double gap = gapAlong(m.box, o, a, dimension, ahead), sign = ahead ? 1 : -1;
       earliest = std::min(earliest, timeToClose(gap, sign * m.velocity[a], sign * gravity[a]));
-      if (sign * down[a] == 1) fall = std::min(fall, gap);
+      if (sign * down[a] > 0) fall = std::min(fall, gap / (sign * down[a]));
     }
   return {earliest, fall};
 }
@@ -204,11 +204,10 @@ std::optional<StepForecast> forecastStep(const Scene& scene, const StepLimit& st
   for (const ColliderParams& c : scene.colliders)
     if (const auto o = obstacleOf(c)) obstacles.push_back(*o);
   double impact_time = std::numeric_limits<double>::infinity();
-  std::vector<Box> boxes;
-  for (const Body& body : scene.bodies) {
-    const Mover m = moverOf(body);
+  std::vector<Mover> movers;
+  for (const Body& body : scene.bodies) movers.push_back(moverOf(body));
+  for (const Mover& m : movers) {
     const Box& b = m.box;
-    boxes.push_back(b);
     // The height it falls to the domain's floor or an obstacle under it; a moving collider can
     // lift snow to the top.
     double fall = 0;
@@ -228,12 +227,12 @@ std::optional<StepForecast> forecastStep(const Scene& scene, const StepLimit& st
     impact_time = std::min(impact_time, time);
   }
   // Two bodies closing on each other meet when the gap between their boxes closes.
-  for (size_t i = 0; i < boxes.size(); ++i)
-    for (size_t j = i + 1; j < boxes.size(); ++j) {
-      const Vector closing = moverOf(scene.bodies[i]).velocity - moverOf(scene.bodies[j]).velocity;
+  for (size_t i = 0; i < movers.size(); ++i)
+    for (size_t j = i + 1; j < movers.size(); ++j) {
+      const Vector closing = movers[i].velocity - movers[j].velocity;
       for (int a = 0; a < scene.dimension; ++a) {
-        const double gap_ij = boxes[j].lo[a] - boxes[i].hi[a],
-                     gap_ji = boxes[i].lo[a] - boxes[j].hi[a];
+        const double gap_ij = movers[j].box.lo[a] - movers[i].box.hi[a],
+                     gap_ji = movers[i].box.lo[a] - movers[j].box.hi[a];
         if (gap_ij > 0 && closing[a] > 0) impact_time = std::min(impact_time, gap_ij / closing[a]);
         if (gap_ji > 0 && closing[a] < 0) impact_time = std::min(impact_time, gap_ji / -closing[a]);
       }

@@ -28,7 +28,7 @@ class LevelSet {
   std::array<double, 3> gradient(const std::array<double, 3>& x) const;
 
   double voxelSize() const { return voxel_; }
-  // The distance from the surface of the point deepest inside (m): half the solid's thickness.
+  // The distance from the surface of the point deepest inside the solid (m).
   double depth() const;
   // Corners of the box outside which phi > 0 (m): the voxels' box, grown by how far below zero a
   // value on its faces goes (by nothing for a closed mesh, whose faces lie outside it).

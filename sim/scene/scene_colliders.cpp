@@ -23,8 +23,9 @@ double meshMargin(const Scene& scene) {
   return 3 * scene.cell_size;
 }
 
-// How far inside the collider the grid's nodes meet it: the scene's inset, at most half the
-// depth of a solid collider so that the grid still sees a thin one.
+// How far inside the collider the grid's nodes meet it: the scene's inset, at most half of how
+// deep the collider's deepest point lies (a sphere's radius, a box's thinnest half size), so that
+// the grid still sees a small one. A mesh's thin part beside a thick one gets the whole inset.
 template <int D>
 Real gridInset(const Scene& scene, const Collider<D>& c) {
   const Real inset = scene.mpm.collider_inset * scene.cell_size;

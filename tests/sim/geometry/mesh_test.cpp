@@ -270,6 +270,39 @@ TEST(LevelSet, IsTheSignedDistanceToTheCube) {
   EXPECT_NEAR(n[1], 0, 0.05);
   const auto down = phi.gradient({0.01, -0.051, 0.02});
   EXPECT_NEAR(down[1], -1, 0.05);
+  EXPECT_NEAR(phi.depth(), 0.05, 1e-3) << "the cube's centre, half its side deep";
+}
+
+// The grid meets a collider mpm.collider_inset cells inside it (0.1 by default), at most half as
+// deep as its deepest point, and the walls that close a 2D scene's slab in 3D on their surface.
+TEST(MeshCollider, TheGridMeetsEachColliderItsInsetInside) {
+  Json j = Json::parse(R"({
+    "name": "inset", "dimension": 2, "solver": "mpm",
+    "grid": {"cells": [20, 20], "cell_size": 0.01},
+    "bodies": [{"shape": "ball", "center": [0.1, 0.15], "radius": 0.02}],
+    "colliders": [{"shape": "sphere", "position": [0.1, 0.05], "radius": 0.02},
+                  {"shape": "sphere", "position": [0.05, 0.05], "radius": 0.001},
+                  {"shape": "box", "position": [0.15, 0.05], "size": [0.04, 0.0016]}]
+  })");
+  const std::vector<Collider<3>> slab = makeColliders<3>(parseScene(j, "inset.json"));
+  ASSERT_EQ(slab.size(), 6u + 3u);
+  for (int wall = 0; wall < 4; ++wall) EXPECT_DOUBLE_EQ(slab[wall].grid_inset, 0.001);
+  EXPECT_EQ(slab[4].grid_inset, 0) << "the slab's near end";
+  EXPECT_EQ(slab[5].grid_inset, 0) << "the slab's far end";
+  EXPECT_DOUBLE_EQ(slab[6].grid_inset, 0.001);
+  EXPECT_DOUBLE_EQ(slab[7].grid_inset, 0.0005) << "half the small sphere's radius";
+  EXPECT_DOUBLE_EQ(slab[8].grid_inset, 0.0004) << "half the thin box's half height";
+  j["mpm"] = {{"collider_inset", 0.2}};
+  EXPECT_DOUBLE_EQ(makeColliders<2>(parseScene(j, "inset.json"))[0].grid_inset, 0.002);
+  const Scene again = parseScene(sceneToJson(parseScene(j, "inset.json")), "inset.json");
+  EXPECT_EQ(again.mpm.collider_inset, 0.2);
+  j["mpm"] = {{"collider_inset", 0.25}};
+  try {
+    parseScene(j, "inset.json");
+    ADD_FAILURE() << "an inset past 0.2 cells is refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mpm.collider_inset"), std::string::npos) << e.what();
+  }
 }
 
 // A mesh whose box needs more than kMaxVoxels voxels of the size asked for gets larger ones, as

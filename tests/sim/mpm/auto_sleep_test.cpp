@@ -165,6 +165,28 @@ TEST(AutoSleep, SleepingPileHitByABallWakesWhereHitAndStopsTheBall) {
   EXPECT_GT(asleepShare(asleep, 0, all), 0.95);
 }
 
+// At the default inset the pile first settles onto the floor; a ball thrown up from high above
+// lands on it after it sleeps (about 0.49 s) and is stopped where the awake pile stops it.
+TEST(AutoSleep, AtTheDefaultInsetTheSettledPileSleepsAndStopsTheBall) {
+  Json j = pileAndBall();
+  j["mpm"].erase("collider_inset");
+  j["grid"]["cells"] = {60, 90};
+  j["bodies"][1]["center"] = {0.3, 0.8};
+  j["bodies"][1]["velocity"] = {0, 1};
+  auto asleep = makeSolver(j);
+  j["mpm"]["auto_sleep"]["enabled"] = false;
+  auto awake = makeSolver(j);
+  const auto all = [](const Vec<2>&) { return true; };
+  runUntil(asleep, 0.45);
+  EXPECT_EQ(asleepShare(asleep, 0, all), 1);
+  runUntil(asleep, 0.8);
+  runUntil(awake, 0.8);
+  const Vec<2> on_sleeping = centre(asleep.particles(), 1), on_awake = centre(awake.particles(), 1);
+  EXPECT_LT((on_sleeping - on_awake).norm(), 1e-3);
+  EXPECT_GT(on_sleeping[1], 0.08 + 0.02) << "on the pile, not sunk into it";
+  EXPECT_LT(on_sleeping[1], 0.08 + 0.04) << "landed";
+}
+
 // The solvers' own checkpoint state, written and read back as `snowsim resume` does.
 TEST(AutoSleep, ResumedFromACheckpointTheSleepStateTakesTheSameSteps) {
   const Json j = pileAndBall();

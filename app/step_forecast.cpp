@@ -1,6 +1,7 @@
 #include "app/step_forecast.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -31,6 +32,10 @@ struct Box {
   Vector lo, hi;
 };
 
+Box boxOf(const std::array<std::array<double, 3>, 2>& bounds) {
+  return {{bounds[0][0], bounds[0][1], bounds[0][2]}, {bounds[1][0], bounds[1][1], bounds[1][2]}};
+}
+
 Box bodyBox(const Body& body) {
   switch (body.shape) {
     case BodyShape::Ball:
@@ -39,14 +44,12 @@ Box bodyBox(const Body& body) {
     case BodyShape::Box:
       return {vector(body.center) - vector(body.size) / 2,
               vector(body.center) + vector(body.size) / 2};
-    case BodyShape::Mesh: {
-      const auto b = body.mesh.placedAt(body.center).bounds();
-      return {{b[0][0], b[0][1], b[0][2]}, {b[1][0], b[1][1], b[1][2]}};
-    }
+    case BodyShape::Mesh:
+      return boxOf(body.mesh.placedAt(body.center).bounds());
     case BodyShape::Points:
       break;
   }
-  // Points come from another run's frame: snow that has met its obstacle already.
+  // A points body without particles: its centre (moverOf reads a frame's particles).
   return {vector(body.center), vector(body.center)};
 }
 
@@ -134,8 +137,7 @@ std::optional<Obstacle> obstacleOf(const ColliderParams& c) {
   } else if (c.shape == ColliderShape::Box) {
     local = {-vector(c.size) / 2, vector(c.size) / 2};
   } else {
-    const auto b = c.mesh.placedAt({0, 0, 0}).bounds();
-    local = {{b[0][0], b[0][1], b[0][2]}, {b[1][0], b[1][1], b[1][2]}};
+    local = boxOf(c.mesh.placedAt({0, 0, 0}).bounds());
   }
   const Vector centre = at + turn * (local.lo + local.hi) / 2;
   const Vector half = turn.cwiseAbs() * (local.hi - local.lo) / 2;
@@ -143,7 +145,7 @@ std::optional<Obstacle> obstacleOf(const ColliderParams& c) {
   return o;
 }
 
-// How far a body's box lies from an obstacle along axis a (or along the plane's normal), when the
+// How far a body's box lies from an obstacle's box along axis a, ahead of it or behind, when the
 // obstacle is in its way: the boxes overlap across the other axes. Infinite when it is not.
 double gapAlong(const Box& b, const Obstacle& o, int a, int dimension, bool ahead) {
   constexpr double none = std::numeric_limits<double>::infinity();

@@ -51,16 +51,14 @@ struct Collider {
   Vec<D> outwardNormal(const Vec<D>& x) const;
   Vec<D> surfaceVelocity(const Vec<D>& x) const { return velocity + spin * (x - position); }
 
-  // Applies the collision to v at x when x is inside or on the collider (phi <= 0).
-  void collide(const Vec<D>& x, Vec<D>& v) const {
-    if (phi(x) > 0) return;
+  // Applies the collision to v at x when x lies `depth` or deeper inside the collider (phi <=
+  // -depth): a particle on or inside it.
+  void collide(const Vec<D>& x, Vec<D>& v, Real depth = 0) const {
+    if (phi(x) > -depth) return;
     v = collideVelocity<D>(v, outwardNormal(x), surfaceVelocity(x), type, friction);
   }
-  // Applies the collision to a grid node's v at x when x lies grid_inset or deeper inside.
-  void collideNode(const Vec<D>& x, Vec<D>& v) const {
-    if (phi(x) > -grid_inset) return;
-    v = collideVelocity<D>(v, outwardNormal(x), surfaceVelocity(x), type, friction);
-  }
+  // A grid node's v at x, grid_inset or deeper inside.
+  void collideNode(const Vec<D>& x, Vec<D>& v) const { collide(x, v, grid_inset); }
   // Moves x onto the surface if it ended inside.
   void pushOut(Vec<D>& x) const {
     const Real d = phi(x);

@@ -74,33 +74,33 @@ TEST(StepForecast, OnlyForAnExplicitAdaptiveMpmStep) {
   EXPECT_NEAR(driven->impact_speed, std::sqrt(2 * 9.81 * drum.extent()[1]), 1e-9);
 }
 
+// The forecast of mpm_snowball_drop_3d's ball (at rest, its bottom at 0.115 m) with one collider.
+snowsim::StepForecast dropOnto(const std::string& collider) {
+  const snowsim::Scene s =
+      loadScene(scene("mpm_snowball_drop_3d"), {"colliders=[" + collider + "]"});
+  const auto forecast = forecastStep(s, firstStep(s, 0));
+  EXPECT_TRUE(forecast);
+  return forecast.value_or(snowsim::StepForecast{});
+}
+
 // A ball falling onto a box, or a tilted plane, inside the domain meets it before the floor: it
 // falls the gap to it, and no further.
 TEST(StepForecast, ABallMeetsAColliderInsideTheDomainBeforeTheFloor) {
-  // The ball's bottom at 0.115 m, the box's top at 0.065 m: a 5 cm fall.
-  const snowsim::Scene on_box = loadScene(
-      scene("mpm_snowball_drop_3d"),
-      {R"(colliders=[{"shape": "box", "position": [0.1, 0.04, 0.1], "size": [0.1, 0.05, 0.1]}])"});
-  const auto box = forecastStep(on_box, firstStep(on_box, 0));
-  ASSERT_TRUE(box);
-  EXPECT_NEAR(box->impact_speed, std::sqrt(2 * 9.81 * 0.05), 1e-9);
-  EXPECT_NEAR(box->impact_time, std::sqrt(2 * 0.05 / 9.81), 1e-9);
+  // The box's top at 0.065 m: a 5 cm fall.
+  const auto box =
+      dropOnto(R"({"shape": "box", "position": [0.1, 0.04, 0.1], "size": [0.1, 0.05, 0.1]})");
+  EXPECT_NEAR(box.impact_speed, std::sqrt(2 * 9.81 * 0.05), 1e-9);
+  EXPECT_NEAR(box.impact_time, std::sqrt(2 * 0.05 / 9.81), 1e-9);
   // A box off to the side is not in its way: the floor, 11.5 cm down, is.
-  const snowsim::Scene beside = loadScene(
-      scene("mpm_snowball_drop_3d"),
-      {R"(colliders=[{"shape": "box", "position": [0.03, 0.04, 0.1], "size": [0.04, 0.05, 0.1]}])"});
-  const auto floor = forecastStep(beside, firstStep(beside, 0));
-  ASSERT_TRUE(floor);
-  EXPECT_NEAR(floor->impact_speed, std::sqrt(2 * 9.81 * 0.115), 1e-9);
+  const auto floor =
+      dropOnto(R"({"shape": "box", "position": [0.03, 0.04, 0.1], "size": [0.04, 0.05, 0.1]})");
+  EXPECT_NEAR(floor.impact_speed, std::sqrt(2 * 9.81 * 0.115), 1e-9);
   // A plane through the domain's centre, its normal tilted 30 degrees from up: the ball's lowest
   // corner (0.055, 0.115) lies d above it along the normal, d / cos 30 over it along gravity.
-  const snowsim::Scene slope = loadScene(
-      scene("mpm_snowball_drop_3d"),
-      {R"(colliders=[{"shape": "half_space", "position": [0.1, 0.04, 0.1], "normal": [0.5, 0.8660254037844386, 0]}])"});
-  const auto tilted = forecastStep(slope, firstStep(slope, 0));
-  ASSERT_TRUE(tilted);
+  const auto tilted = dropOnto(
+      R"({"shape": "half_space", "position": [0.1, 0.04, 0.1], "normal": [0.5, 0.8660254037844386, 0]})");
   const double d = 0.5 * (0.055 - 0.1) + 0.8660254037844386 * (0.115 - 0.04);
-  EXPECT_NEAR(tilted->impact_speed, std::sqrt(2 * 9.81 * d / 0.8660254037844386), 1e-6);
+  EXPECT_NEAR(tilted.impact_speed, std::sqrt(2 * 9.81 * d / 0.8660254037844386), 1e-6);
 }
 
 // Points from another run's frame move at their mean velocity and meet as fast as their fastest.

@@ -187,6 +187,29 @@ class TensorStencil {
     return most;
   }
 
+  // The largest |v_i|^2 over the nodes of the stencil, v_i = field[i].
+  [[gnu::always_inline]] T largestSquaredNorm(const V* field) const {
+    T most = 0;
+#pragma GCC unroll 16
+    for (int r = 0; r < rows; ++r) {
+      const T* row = field[row_index_[r]].data();
+      T squares[row_values];
+#pragma GCC unroll 16
+      for (int j = 0; j < chunks; ++j) {
+        const Lanes values = load(row + 4 * j);
+        store(squares + 4 * j, values * values);
+      }
+#pragma GCC unroll 16
+      for (int o = 0; o < S; ++o) {
+        T norm = 0;
+#pragma GCC unroll 16
+        for (int c = 0; c < D; ++c) norm += squares[o * D + c];
+        most = std::max(most, norm);
+      }
+    }
+    return most;
+  }
+
   // f(i, w_ip, x_i - x_p) for every node i of the stencil, row by row.
   template <class F>
   [[gnu::always_inline]] void forEachNode(F&& f) const {

@@ -1,11 +1,13 @@
 // Auto-sleep (mpm.auto_sleep, docs/mpm.md): a particle whose surroundings rest skips its gather,
 // its F_E update and its advection. It falls asleep after `steps` steps in a row in which it and
 // every node of its stencil moved slower than `speed`, and wakes when a node of its stencil moves
-// faster or a moving collider comes within a cell. With open cracks, snow near damage stays awake.
+// faster or a moving collider comes within a cell. With open cracks, a node's velocity is that of
+// the particle's own field there.
 // The step takes the part as a template parameter: NoSleep when it is off, whose calls compile to
 // nothing.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "sim/core/collider.h"
@@ -16,6 +18,15 @@
 
 namespace snowsim {
 
+// The velocities a particle meets at the nodes of its stencil: one field's, or node by node side
+// 0's or side 1's of an open crack (bit n of `sides` for the n-th node, row by row).
+template <int D, class T>
+struct StencilVelocities {
+  const Vec<D, T>* one = nullptr;
+  const Vec<D, T>* side[2] = {};
+  std::uint64_t sides = 0;
+};
+
 // The particles' calm steps count to the sleep steps while one rests awake, and are one more once
 // it slept through a step. A step takes the part as SleepStep, over the solver's arrays.
 template <int D, class T>
@@ -24,13 +35,11 @@ class SleepStep {
   using V = Vec<D, T>;
 
   SleepStep(const AutoSleep& params, std::vector<int>& calm_steps, const GridGeometry<D>& grid,
-            const GridFields<D, T>& fields, const std::vector<Collider<D>>& colliders,
-            bool colliders_move)
+            const std::vector<Collider<D>>& colliders, bool colliders_move)
       : speed_(T(params.speed)),
         steps_(params.steps),
         calm_(calm_steps),
         grid_(grid),
-        fields_(fields),
         colliders_(colliders),
         colliders_move_(colliders_move) {}
 
@@ -44,31 +53,31 @@ class SleepStep {
   }
 
   // 1 + 3 with resting snow: its momentum is dt times its stress's share, which unit(p, g)
-  // scatters at dt = 1, so a block of still particles keeps what it scattered.
-  template <class Schedule, class Scatter, class Unit>
-  void scatter(Schedule& schedule, Scatter&& scatter, Unit&& unit, T dt) const {
+  // scatters at dt = 1, so a block of still particles keeps what it scattered; but a block with a
+  // particle that scattersFresh(p) (near open cracks, where it may take a node's other side)
+  // scatters afresh.
+  template <class Schedule, class Scatter, class Unit, class ScattersFresh>
+  void scatter(Schedule& schedule, Scatter&& scatter, Unit&& unit, ScattersFresh&& scattersFresh,
+               T dt) const {
     schedule.scatter(
-        scatter, [&](int p) { return stillness(p); }, unit, dt);
+        scatter, [&](int p) { return scattersFresh(p) ? 0 : stillness(p); }, unit, dt);
   }
 
   // Whether particle p, at x, sleeps through this step, waking it if its stencil or a collider
-  // moves. Asleep, it scattered its mass and its stress, both unchanged while it sleeps; it has no
-  // velocity to gather and no deformation to update while its stencil rests.
+  // moves at the velocities it meets there. Asleep, it
+  // scattered its mass and its stress, both unchanged while it sleeps; it has no velocity to
+  // gather and no deformation to update while its stencil rests.
   template <class Kernel>
-  bool sleepsThrough(int p, const V& x) {
+  bool sleepsThrough(int p, const V& x, const StencilVelocities<D, T>& velocities) {
     int& calm = calm_[p];
     if (calm < steps_) return false;
-    if (!stencilMoves<Kernel>(x) && !touchedByMovingCollider(x)) {
+    if (!stencilMoves<Kernel>(x, velocities) && !touchedByMovingCollider(x)) {
       calm = steps_ + 1;  // slept through a step: see stillness()
       return true;
     }
     calm = 0;  // wakes, and moves this very step
     return false;
   }
-
-  // Particle p moves this step, and counts its calm steps afresh from the next (the crack part's
-  // snow near damage, before the scatter: see OpenCracks::keepsAwake).
-  void keepAwake(int p) { calm_[p] = 0; }
 
   // A batch of the particle pass: where its awake particles were before they moved.
   template <int most>
@@ -77,14 +86,15 @@ class SleepStep {
     void remember(int a, const V& x) { x_before[a] = x; }
   };
 
-  // After particle p, the batch's awake particle a, moved at velocity v: whether it has rested
-  // long enough to fall asleep, when fallAsleep() stops its velocity and what feeds the grid from
-  // it.
+  // After particle p, the batch's awake particle a, moved at velocity v (velocities as in
+  // sleepsThrough): whether it has rested long enough to fall asleep, when fallAsleep() stops its
+  // velocity and what feeds the grid from it.
   template <class Kernel, class PassBatch, class FallAsleep>
-  void restOrStir(int p, const V& v, const PassBatch& batch, int a, FallAsleep&& fallAsleep) {
+  void restOrStir(int p, const V& v, const PassBatch& batch, int a,
+                  const StencilVelocities<D, T>& velocities, FallAsleep&& fallAsleep) {
     int& calm = calm_[p];
     const bool resting =
-        v.squaredNorm() < speed_ * speed_ && !stencilMoves<Kernel>(batch.x_before[a]);
+        v.squaredNorm() < speed_ * speed_ && !stencilMoves<Kernel>(batch.x_before[a], velocities);
     calm = resting ? calm + 1 : 0;
     if (calm >= steps_) fallAsleep();
   }
@@ -92,12 +102,15 @@ class SleepStep {
  private:
   // Whether a node of the stencil at x moves faster than the sleep speed.
   template <class Kernel>
-  bool stencilMoves(const V& x) const {
+  bool stencilMoves(const V& x, const StencilVelocities<D, T>& velocities) const {
     const T limit = speed_ * speed_;
     const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
+    const TensorStencil<D, Kernel, T> rows(grid_, s, x);
+    if (velocities.one) return rows.largestSquaredNorm(velocities.one) > limit;
     bool moves = false;  // every node read, no early exit: the loop stays branch-free
-    visitStencil(grid_, s, x, [&](const StencilVisit<D, T>& node) {
-      moves |= fields_.velocity[node.index].squaredNorm() > limit;
+    int n = 0;
+    rows.forEachNode([&](int k, T, const V&) {
+      moves |= velocities.side[velocities.sides >> n++ & 1][k].squaredNorm() > limit;
     });
     return moves;
   }
@@ -116,7 +129,6 @@ class SleepStep {
   int steps_;
   std::vector<int>& calm_;
   const GridGeometry<D>& grid_;
-  const GridFields<D, T>& fields_;
   const std::vector<Collider<D>>& colliders_;
   bool colliders_move_;
 };
@@ -130,9 +142,8 @@ class AutoSleeper {
   // The part this step takes, over the solver's arrays.
   template <int D, class T>
   SleepStep<D, T> step(std::vector<int>& calm_steps, const GridGeometry<D>& grid,
-                       const GridFields<D, T>& fields, const std::vector<Collider<D>>& colliders,
-                       bool colliders_move) const {
-    return SleepStep<D, T>(params_, calm_steps, grid, fields, colliders, colliders_move);
+                       const std::vector<Collider<D>>& colliders, bool colliders_move) const {
+    return SleepStep<D, T>(params_, calm_steps, grid, colliders, colliders_move);
   }
   // After each step's particle pass: asleep of the total particles slept through it.
   void count(long asleep, long particles) {
@@ -153,21 +164,21 @@ class AutoSleeper {
 template <int D, class T>
 struct NoSleep {
   using V = Vec<D, T>;
-  template <class Schedule, class Scatter, class Unit>
-  void scatter(Schedule& schedule, Scatter&& scatter, Unit&&, T) const {
+  template <class Schedule, class Scatter, class Unit, class ScattersFresh>
+  void scatter(Schedule& schedule, Scatter&& scatter, Unit&&, ScattersFresh&&, T) const {
     schedule.scatter(scatter);
   }
   template <class Kernel>
-  bool sleepsThrough(int, const V&) const {
+  bool sleepsThrough(int, const V&, const StencilVelocities<D, T>&) const {
     return false;
   }
-  void keepAwake(int) const {}
   template <int most>
   struct Batch {
     void remember(int, const V&) {}
   };
   template <class Kernel, class PassBatch, class FallAsleep>
-  void restOrStir(int, const V&, const PassBatch&, int, FallAsleep&&) const {}
+  void restOrStir(int, const V&, const PassBatch&, int, const StencilVelocities<D, T>&,
+                  FallAsleep&&) const {}
 };
 
 }  // namespace snowsim

@@ -23,6 +23,7 @@
 #include "sim/core/grid.h"
 #include "sim/core/lanes.h"
 #include "sim/core/stencil.h"
+#include "sim/mpm/auto_sleep.h"
 #include "sim/mpm/mpm_particles.h"
 #include "sim/mpm/snow_material.h"
 #include "sim/parallel/zero_page_allocator.h"
@@ -142,6 +143,13 @@ class CrackOpening {
     return takes_sides_[p];
   }
   bool takesSides(int p) const { return takes_sides_[p]; }
+  // The velocities particle p meets at its stencil's nodes: those of its fields once it took
+  // sides this step, else side 0's, v0.
+  StencilVelocities<D, T> velocitiesOf(int p, bool failed, const V* v0) const {
+    if (!takes_sides_[p]) return {v0};
+    if (failed) return {node_.velocity[1].data()};
+    return {nullptr, {v0, node_.velocity[0].data()}, side_bits_[p]};
+  }
 
   // Which field of node k particle p scatters to and gathers from: the grains once it failed,
   // else the side its damage gradient lies on (side 0 where the node has no reference).
@@ -326,8 +334,11 @@ Mat<D, T> mlsAffineMomentum(const MpmParticles<D, T>& particles, int p, T dt, T 
 template <int D, class T>
 struct OneVelocityPerNode {
   using V = Vec<D, T>;
-  template <class Schedule, class KeepAwake>
-  void findSides(Schedule&, KeepAwake&&) {}
+  const GridFields<D, T>& fields;
+
+  template <class Schedule>
+  void findSides(Schedule&) {}
+  bool scattersFresh(int) const { return false; }
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
     plain(p, g);
@@ -341,7 +352,8 @@ struct OneVelocityPerNode {
   void gather(int p, Plain&& plain) const {
     plain(p);
   }
-  bool keepsAwake(int) const { return false; }
+  // The velocities particle p meets at its stencil's nodes: the nodes'.
+  StencilVelocities<D, T> velocitiesOf(int) const { return {fields.velocity.data()}; }
 };
 
 // With mpm.open_cracks once some snow is damaged: the damage field and the sides first; then near
@@ -366,11 +378,10 @@ class OpenCracks {
 
   // The damage field, then each particle's damage gradient and each node's reference direction,
   // which decide the sides of the scatter and the gather. Both passes take every particle, asleep
-  // or not, so that the sides see all the snow's mass and damage; keepAwake(p) for snow near
-  // damage, which may take sides and whose damage may change. The stages named "crack: ..." tell
-  // the cost estimate (app/cost_estimate.cpp) that these passes ran.
-  template <class Schedule, class KeepAwake>
-  void findSides(Schedule& schedule, KeepAwake&& keepAwake) {
+  // or not, so that the sides see all the snow's mass and damage. The stages named "crack: ..."
+  // tell the cost estimate (app/cost_estimate.cpp) that these passes ran.
+  template <class Schedule>
+  void findSides(Schedule& schedule) {
     using PartialGrid = typename Schedule::PartialGrid;
     schedule.scatter(
         [&](int p, PartialGrid& g) {
@@ -387,7 +398,6 @@ class OpenCracks {
             cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
                                                   g.colour);
           });
-          if (cracks_.nearDamage(p)) keepAwake(p);
         },
         "crack: gradients");
     schedule.forScatteredNodes("crack: sides", [&](int k) { cracks_.sumReference(k); });
@@ -426,9 +436,13 @@ class OpenCracks {
       particles_.C[p] = inertia_inverse_ * B;
     });
   }
-  // Whether particle p must not fall asleep: near damage it may take sides, which a still block's
-  // kept scatter does not, and its own damage may change.
-  bool keepsAwake(int p) const { return cracks_.nearDamage(p); }
+  // Whether particle p, asleep or not, must scatter afresh: near damage it may take sides, which a
+  // still block's kept scatter does not. (Asleep, its damage does not change: J_P stays.)
+  bool scattersFresh(int p) const { return cracks_.nearDamage(p); }
+  // The velocities particle p meets at its stencil's nodes: its fields'.
+  StencilVelocities<D, T> velocitiesOf(int p) const {
+    return cracks_.velocitiesOf(p, cracks_.takesSides(p) && failed(p), fields_.velocity.data());
+  }
 
  private:
   T strength(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]); }

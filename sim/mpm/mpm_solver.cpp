@@ -124,7 +124,7 @@ void MpmSolver<D, T>::withParts(F&& f) {
       return withSleep(opening);
     }
   }
-  OneVelocityPerNode<D, T> opening;
+  OneVelocityPerNode<D, T> opening{fields_};
   withSleep(opening);
 }
 
@@ -140,17 +140,18 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
   // stages each meet on their own; the explicit stages share the team's threads, but for the
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !ranks_.distributed(), [&] {
-    // Open cracks: the side of each node each particle takes; snow near damage stays awake.
-    opening.findSides(schedule_, [&](int p) { sleep.keepAwake(p); });
+    // Open cracks: the side of each node each particle takes.
+    opening.findSides(schedule_);
     // 1, 3: mass, momentum and forces to the grid; resting snow's momentum is dt times its
-    // stress's share.
+    // stress's share, kept by blocks far from open cracks.
     sleep.scatter(
         schedule_,
         [&](int p, PartialGrid& g) {
           opening.scatter(p, g, dt, [&](int q, PartialGrid& h) { plainScatter(q, h, dt); });
         },
-        // Sleeping snow is far from damage, where it takes side 0 alone: it scatters as plain snow.
-        [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); }, dt);
+        // A kept block is far from damage, where its snow takes side 0 alone: plain snow's scatter.
+        [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); },
+        [&](int p) { return opening.scattersFresh(p); }, dt);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     ranks_.updateNodes(
         schedule_, fields_,
@@ -184,7 +185,7 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
   typename Sleep::template Batch<most> moved;
   int count = 0;
   for (const int p : batch) {
-    if (sleep.template sleepsThrough<Kernel>(p, particles_.x[p])) continue;
+    if (sleep.template sleepsThrough<Kernel>(p, particles_.x[p], opening.velocitiesOf(p))) continue;
     moved.remember(count, particles_.x[p]);
     awake[count++] = p;
     // 8 (gathered first: 7 needs grad v)
@@ -198,8 +199,8 @@ void MpmSolver<D, T>::moveParticles(std::span<const int> batch, PartMeasure& m, 
     if (a < count && awake[a] == p) {
       collideParticle(p);  // 9
       advect(p, dt);       // 10
-      if (!opening.keepsAwake(p))
-        sleep.template restOrStir<Kernel>(p, particles_.v[p], moved, a, [&] { fallAsleep(p); });
+      sleep.template restOrStir<Kernel>(p, particles_.v[p], moved, a, opening.velocitiesOf(p),
+                                        [&] { fallAsleep(p); });
       ++a;
     } else {
       ++m.asleep;
@@ -487,7 +488,7 @@ void MpmSolver<D, T>::updateParticles(Real dt) {
   schedule_.forgetStillBlocks();  // a pass no scatter with stillness sees
   const VectorIsa isa = vectorIsa();
   withTransferAndKernel(params_.transfer, params_.kernel, [&]<class Transfer, class Kernel>() {
-    OneVelocityPerNode<D, T> opening;  // a pass alone takes the plain gather
+    OneVelocityPerNode<D, T> opening{fields_};  // a pass alone takes the plain gather
     const auto pass = [&](auto&& sleep) {
       schedule_.passOverParticles("move particles", particles_.x, part_measures_,
                                   [&](std::span<const int> batch, PartMeasure& m, Real* shares) {

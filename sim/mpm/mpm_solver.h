@@ -137,7 +137,7 @@ class MpmSolver final : public Solver<D> {
   template <class Transfer, class Kernel, class F>
   void withParts(F&& f);
   SleepStep<D, T> sleepStep() {
-    return sleeper_->step(particles_.calm_steps, grid_, fields_, colliders_, colliders_move_);
+    return sleeper_->step<D, T>(particles_.calm_steps, grid_, colliders_, colliders_move_);
   }
   // The step: stages 1-10 of the paper's section 4 with the parts given.
   template <class Transfer, class Kernel, class Opening, class Sleep>

@@ -17,7 +17,7 @@ template <int D, class T>
 MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threads,
                            RankExchange& world)
     : params_(scene.mpm),
-      material_(scene.material),
+      material_(atCellSize(scene.material, scene.cell_size)),
       unhardened_lame_(unhardenedLame<T>(scene.material)),
       gravity_(sceneGravity<D>(scene).template cast<T>()),
       particles_(inPrecision<T>(std::move(particles)), scene.material),

@@ -36,11 +36,23 @@ struct SnowMaterial {
   // goes below hardening_min. Crack softening of the kind later MPM fracture work uses
   // (docs/snow-at-scale.md, "Cracks that open in the solver").
   Real fracture_strain = 0;
+  // Crack band width l_f (m) at which fracture_strain holds. Softening snow fails in a band one
+  // cell wide, so the energy a crack takes per area is the band's energy per volume times the
+  // cell: with l_f > 0 snow on a grid of cell h fails at fracture_strain l_f / h, the same energy
+  // at every cell (the crack band model of Bazant and Oh 1983). 0: fracture_strain at every cell.
+  Real fracture_length = 0;
 
   // Lamé parameters from E0 and nu: mu0 = E / (2 (1 + nu)), lambda0 = E nu / ((1 + nu)(1 - 2 nu)).
   Real mu0() const { return E0 / (2 * (1 + nu)); }
   Real lambda0() const { return E0 * nu / ((1 + nu) * (1 - 2 * nu)); }
 };
+
+// The material as a grid of cell h steps it: fracture_strain that of a crack band one cell wide
+// (fracture_length).
+inline SnowMaterial atCellSize(SnowMaterial m, Real h) {
+  if (m.fracture_length > 0) m.fracture_strain *= m.fracture_length / h;
+  return m;
+}
 
 // Hardened Lamé parameters of one particle (paper eq. 8: mu = mu0 h, lambda = lambda0 h with the
 // hardening factor h = e^{xi (1 - J_P)} clamped to [hardening_min, hardening_max], times the

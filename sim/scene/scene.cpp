@@ -268,6 +268,9 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.hardening_max = f.number("hardening_max", m.hardening_max, 1, 1e300);
   m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
   m.fracture_strain = f.number("fracture_strain", m.fracture_strain, 0, 100);
+  m.fracture_length = f.number("fracture_length", m.fracture_length, 0, 10);
+  if (m.fracture_length > 0 && !(m.fracture_strain > 0))
+    f.fail("fracture_length", "needs material.fracture_strain > 0 (the strain its band fails at)");
   f.finish();
   return m;
 }

@@ -94,6 +94,44 @@ TEST(Fracture, SnowLosesItsStrengthBetweenNoStretchAndTheFractureStrain) {
   EXPECT_EQ(strengthLeft<float>(m, 10.0f), 0);
 }
 
+// With a crack band width (material.fracture_length) the solver's snow fails at the strain that
+// takes a band one cell wide the same energy at every cell: fracture_strain l_f / h.
+TEST(Fracture, AFractureLengthGivesEachCellTheStrainOfItsBand) {
+  Json j = Json::parse(R"({
+    "name": "t", "dimension": 2, "solver": "mpm",
+    "grid": {"cells": [20, 20], "cell_size": 0.01},
+    "material": {"fracture_strain": 0.3, "fracture_length": 0.005},
+    "bodies": [{"shape": "ball", "center": [0.05, 0.05], "radius": 0.02}]
+  })");
+  const auto strainAt = [&](Real cell, const Json& material) {
+    Json scene = j;
+    scene["grid"] = {{"cells", {int(0.1 / cell), int(0.1 / cell)}}, {"cell_size", cell}};
+    scene["material"] = material;
+    const Scene parsed = parseScene(scene, "t.json");
+    return MpmSolver<2>(parsed, sampleBodies<2>(parsed), 1).material().fracture_strain;
+  };
+  const Json band = j["material"];
+  EXPECT_NEAR(strainAt(0.01, band), 0.15, 1e-15);
+  EXPECT_EQ(strainAt(0.005, band), 0.3) << "at the band's own cell, the strain given";
+  EXPECT_NEAR(strainAt(0.0025, band), 0.6, 1e-15);
+  EXPECT_EQ(strainAt(0.01, {{"fracture_strain", 0.3}}), 0.3) << "no band: every cell alike";
+  const Scene parsed = parseScene(j, "t.json");
+  EXPECT_EQ(parseScene(sceneToJson(parsed), "again.json").material.fracture_length, 0.005);
+  for (const Json& bad : {Json{{"fracture_length", 0.005}},
+                          Json{{"fracture_strain", 0.3}, {"fracture_length", -1}}}) {
+    Json scene = j;
+    scene["material"] = bad;
+    try {
+      parseScene(scene, "t.json");
+      ADD_FAILURE() << bad.dump() << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("material.fracture_length"), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("t.json"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // With one velocity a node the two halves share the nodes along the band and drag each other
 // to a stop; with two sides a node they slide past each other as they started.
 TEST(CrackOpening, TheHalvesOfAShearedBarSlideAlongAFailedBand) {

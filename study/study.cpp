@@ -49,15 +49,20 @@ void applySolver(const std::string& label, Scene& scene) {
   const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
   if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
   // The axes beside the solvers: explicit MLS at the default adaptive step (capped by the
-  // sweep's dt), and explicit MLS with auto-sleep at its defaults.
+  // sweep's dt), with auto-sleep at its defaults, and with cracks that open in snow that fails as
+  // the crack smash's does (eps_f 0.3; a scene's own fracture strain if it has one).
   if (label == "mpm_mls_adaptive") scene.mpm.adaptive_dt = true;
   if (label == "mpm_mls_sleep") scene.mpm.auto_sleep.enabled = true;
+  if (label == "mpm_mls_cracks") {
+    scene.mpm.open_cracks = true;
+    if (!(scene.material.fracture_strain > 0)) scene.material.fracture_strain = 0.3;
+  }
   if (label == "mpm_pic_flip")
     scene.mpm.transfer = MpmTransfer::PicFlip;
   else if (label == "mpm_apic" || label == "mpm_apic_semi")
     scene.mpm.transfer = MpmTransfer::Apic;
   else if (label == "mpm_mls" || label == "mpm_mls_semi" || label == "mpm_mls_float" ||
-           label == "mpm_mls_adaptive" || label == "mpm_mls_sleep")
+           label == "mpm_mls_adaptive" || label == "mpm_mls_sleep" || label == "mpm_mls_cracks")
     scene.mpm.transfer = MpmTransfer::Mls;
   else
     throw InputError("study: unknown solver label '" + label + "'");
@@ -122,9 +127,9 @@ std::vector<Sweep> presetNamed(const std::string& name) {
              0.15,
              {0},
              false}};
-  if (name == "axes") {  // precision, step policy and auto-sleep against the reference
+  if (name == "axes") {  // precision, step policy, auto-sleep and cracks against the reference
     const std::vector<std::string> axes = {"mpm_mls", "mpm_mls_float", "mpm_mls_adaptive",
-                                           "mpm_mls_sleep"};
+                                           "mpm_mls_sleep", "mpm_mls_cracks"};
     return {{{"snowball_drop", "column_thrown_ball"}, axes, {0.002, 5e-4, 2e-4}, {1}, {9}, 0.5},
             {{"study_smash_3d"}, axes, {0.002, 5e-4}, {1}, {4}, 0.3}};
   }

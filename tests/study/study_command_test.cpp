@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -101,6 +102,40 @@ TEST(StudyCommand, QuickPresetWritesCaughtRowsAndSkipsOnRerun) {
   text << log.rdbuf();
   EXPECT_NE(text.str().find("0 runs measured, 21 already measured"), std::string::npos)
       << text.str();
+}
+
+// The axes preset's crack axis (mpm_mls_cracks) runs every scene and step of the plain one with
+// cracks that open: the same runs diverge, and every run that finishes ends elsewhere than the
+// plain run, so the cracks took part.
+TEST(StudyCommand, AxesPresetRunsTheCrackAxisBesideThePlainOne) {
+  const auto dir = snowsim_test::processTempDir() / "study_axes";
+  std::filesystem::remove_all(dir);
+  const std::string csv = (dir / "axes.csv").string();
+  const std::string command = std::string(SNOWSIM_BINARY) + " study --preset axes --scenes " +
+                              SNOWSIM_SOURCE_DIR + "/scenes -o " + csv;
+  ASSERT_EQ(std::system((command + " > " + (dir.string() + ".log")).c_str()), 0);
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::map<std::string, std::vector<std::string>> plain, cracks;  // by scene and dt
+  while (std::getline(in, line)) {
+    const auto f = split(line);
+    if (f[2] == "mpm_mls") plain[f[1] + " " + f[3]] = f;
+    if (f[2] == "mpm_mls_cracks") cracks[f[1] + " " + f[3]] = f;
+  }
+  ASSERT_EQ(cracks.size(), 8u);
+  ASSERT_EQ(plain.size(), cracks.size());
+  int finished = 0;
+  for (const auto& [run, f] : cracks) {
+    ASSERT_TRUE(plain.count(run)) << run;
+    const auto& p = plain[run];
+    EXPECT_EQ(f[9], p[9]) << run;  // the status
+    if (f[9] != "finished") continue;
+    ++finished;
+    EXPECT_NE(f[13], p[13]) << run << ": the density error of the plain run";
+    EXPECT_NE(f[15], p[15]) << run << ": the centre of mass error of the plain run";
+  }
+  EXPECT_EQ(finished, 5);
 }
 
 }  // namespace

@@ -197,7 +197,8 @@ void measure(const std::string& label, const Json& j, int steps, int reps, bool 
 }
 
 // The crack smash (scenes/flagship/smash_wall_cracks.json) at cell 10 mm: a ball of radius 0.1 m
-// thrown at 4 m/s into a sticky wall, snow that fails past ln J_P = 0.3; cracks open or not.
+// thrown at 4 m/s into a sticky wall, snow that fails past ln J_P = 0.3 (the full scene's strain,
+// without its crack band); cracks open or not.
 Json crackSceneJson(bool open_cracks) {
   Json j = Json::parse(R"({"name": "bench cracks", "dimension": 3, "solver": "mpm",
     "grid": {"cells": [60, 40, 40], "cell_size": 0.01}, "particles_per_cell": 8,

@@ -49,8 +49,8 @@ void applySolver(const std::string& label, Scene& scene) {
   const bool semi = label == "mpm_apic_semi" || label == "mpm_mls_semi";
   if (semi) scene.mpm.integrator = MpmIntegrator::SemiImplicit;
   // The axes beside the solvers: explicit MLS at the default adaptive step (capped by the
-  // sweep's dt), with auto-sleep at its defaults, and with cracks that open in snow that fails as
-  // the crack smash's does (eps_f 0.3; a scene's own fracture strain if it has one).
+  // sweep's dt), with auto-sleep at its defaults, and with cracks that open in snow that fails at
+  // eps_f 0.3 at any cell (a scene's own fracture strain if it has one).
   if (label == "mpm_mls_adaptive") scene.mpm.adaptive_dt = true;
   if (label == "mpm_mls_sleep") scene.mpm.auto_sleep.enabled = true;
   if (label == "mpm_mls_cracks") {

@@ -88,7 +88,8 @@ class CrackOpening {
       const bool near = t.largest(node_.damage.data()) > 0;
       near_damage_[p] = near;
       grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
-      takes_sides_[p] = false;  // until decideSides, which snow asleep (far from damage) skips
+      takes_sides_[p] =
+          0;  // until decideSides, which a kept still block's snow (far from damage) skips
       const V gradient =
           near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
       gradient_[p] = gradient;
@@ -139,15 +140,15 @@ class CrackOpening {
       });
     }
     side_bits_[p] = bits;
-    takes_sides_[p] = failed || grains_near_[p] || bits != 0;
+    takes_sides_[p] = failed ? takes_grains : grains_near_[p] || bits != 0 ? takes_own_sides : 0;
     return takes_sides_[p];
   }
   bool takesSides(int p) const { return takes_sides_[p]; }
-  // The velocities particle p meets at its stencil's nodes: those of its fields once it took
-  // sides this step, else side 0's, v0.
-  StencilVelocities<D, T> velocitiesOf(int p, bool failed, const V* v0) const {
+  // The velocities particle p meets at its stencil's nodes: those of the fields it scattered to
+  // this step (the grains' if it had failed then), else side 0's, v0.
+  StencilVelocities<D, T> velocitiesOf(int p, const V* v0) const {
     if (!takes_sides_[p]) return {v0};
-    if (failed) return {node_.velocity[1].data()};
+    if (takes_sides_[p] == takes_grains) return {node_.velocity[1].data()};
     return {nullptr, {v0, node_.velocity[0].data()}, side_bits_[p]};
   }
 
@@ -276,6 +277,9 @@ class CrackOpening {
   static void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
     withStencil<Kernel>(grid, x, [&](const auto& t) { t.forEachNode(f); });
   }
+  // takes_sides_: the particle scattered to its sides (or, intact near grains, gave them its
+  // normals), or it had failed and scattered to the grains.
+  static constexpr char takes_own_sides = 1, takes_grains = 2;
   // Bits of Partial::touched: a particle with sides scattered to the node; one near grains, its
   // normal too.
   static constexpr char touched_sides = 1, touched_normals = 2;
@@ -441,7 +445,7 @@ class OpenCracks {
   bool scattersFresh(int p) const { return cracks_.nearDamage(p); }
   // The velocities particle p meets at its stencil's nodes: its fields'.
   StencilVelocities<D, T> velocitiesOf(int p) const {
-    return cracks_.velocitiesOf(p, cracks_.takesSides(p) && failed(p), fields_.velocity.data());
+    return cracks_.velocitiesOf(p, fields_.velocity.data());
   }
 
  private:

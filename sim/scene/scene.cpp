@@ -269,8 +269,12 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
   m.fracture_strain = f.number("fracture_strain", m.fracture_strain, 0, 100);
   m.fracture_length = f.number("fracture_length", m.fracture_length, 0, 10);
-  if (m.fracture_length > 0 && !(m.fracture_strain > 0))
-    f.fail("fracture_length", "needs material.fracture_strain > 0 (the strain its band fails at)");
+  if (m.fracture_length > 0 && !(m.fracture_strain > 0)) {
+    FieldError e(file, "material.fracture_length",
+                 "needs material.fracture_strain > 0 (the strain its band fails at)");
+    e.also = {"material.fracture_strain"};  // a --set of either is blamed
+    throw e;
+  }
   f.finish();
   return m;
 }

@@ -94,7 +94,7 @@ struct MpmParams {
   AutoSleep auto_sleep;
   // Two velocities a node across damaged snow and failed snow as loose grains (sim/mpm/
   // crack_opening.h): needs material.fracture_strain, the MLS transfer, the explicit integrator
-  // and one process; with auto-sleep, snow near damage stays awake.
+  // and one process; runs with auto-sleep.
   bool open_cracks = false;
   double crack_friction = 0.6;  // Coulomb coefficient where the fields of open_cracks touch
 };

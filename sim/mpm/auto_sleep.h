@@ -63,10 +63,10 @@ class SleepStep {
         scatter, [&](int p) { return scattersFresh(p) ? 0 : stillness(p); }, unit, dt);
   }
 
-  // Whether particle p, at x, sleeps through this step, waking it if its stencil or a collider
-  // moves at the velocities it meets there. Asleep, it
-  // scattered its mass and its stress, both unchanged while it sleeps; it has no velocity to
-  // gather and no deformation to update while its stencil rests.
+  // Whether particle p, at x, sleeps through this step, waking it if a collider or its stencil,
+  // at the velocities it meets there, moves. Asleep, it scattered its mass and its stress, both
+  // unchanged while it sleeps; it has no velocity to gather and no deformation to update while
+  // its stencil rests.
   template <class Kernel>
   bool sleepsThrough(int p, const V& x, const StencilVelocities<D, T>& velocities) {
     int& calm = calm_[p];

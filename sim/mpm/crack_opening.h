@@ -88,8 +88,8 @@ class CrackOpening {
       const bool near = t.largest(node_.damage.data()) > 0;
       near_damage_[p] = near;
       grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
-      takes_sides_[p] =
-          0;  // until decideSides, which a kept still block's snow (far from damage) skips
+      // Until decideSides, which a kept still block's snow (far from damage) skips.
+      takes_sides_[p] = 0;
       const V gradient =
           near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
       gradient_[p] = gradient;

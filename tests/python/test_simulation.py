@@ -226,8 +226,10 @@ def test_a_run_directory_checkpoint_loads_and_steps_as_resume_does(snowsim, tmp_
                             "--no-png", "--no-mp4", "--threads", "1", "--checkpoint-every", "1",
                             "--set", "time.duration=1"],
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    checkpoint = out / "checkpoint.snowsim"
-    while not checkpoint.exists() and run.poll() is None:
+    # The first checkpoint follows frame 0, before any step: stop once frame 1 is written, so that
+    # the checkpoint of the stop holds steps.
+    checkpoint, first = out / "checkpoint.snowsim", out / "frame_00001.ply"
+    while not (checkpoint.exists() and first.exists()) and run.poll() is None:
         time.sleep(0.01)
     run.send_signal(signal.SIGTERM)
     assert run.wait(timeout=60) == 143, "the run ended before it was stopped"

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <type_traits>
@@ -119,11 +120,13 @@ double mpmParticleBytes(const Scene& scene, long n, GridArrays& grid, double& se
     grid.addZeroPages(colours * (mpm.transfer == MpmTransfer::Mls ? 1 : 2), sizeof(V));
   }
   if (mpm.open_cracks) {
-    per_particle += sizeof(V) + sizeof(char);  // the damage gradient, near damage
-    // Per colour: damage mass, damage, reference norm, two masses; reference, two normals, two
-    // momenta. Per node: damage; reference and two velocities.
-    grid.addZeroPages(5 * colours + 1, sizeof(T));
+    // The damage gradient; near damage, grains near, takes sides; a side bit per stencil node.
+    per_particle += sizeof(V) + 3 * sizeof(char) + sizeof(std::uint64_t);
+    // Per colour: damage mass, damage, grains, reference norm, two masses; reference, two
+    // normals, two momenta; touched. Per node: damage, grains; reference and two velocities.
+    grid.addZeroPages(6 * colours + 2, sizeof(T));
     grid.addZeroPages(5 * colours + 3, sizeof(V));
+    grid.addZeroPages(colours, sizeof(char));
   }
   if (mpm.integrator == MpmIntegrator::SemiImplicit) {  // in double (ImplicitVelocitySolve)
     const int stencil = std::pow(mpm.kernel == KernelType::Cubic ? 4 : 3, D);

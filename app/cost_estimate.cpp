@@ -26,8 +26,8 @@ std::string inUnits(double value, std::initializer_list<Unit> units) {
   return text;
 }
 
-// The time the steps so far spent in the passes of cracks that open (the solver's stages
-// "crack: ...").
+// The time the steps so far spent in the stages of cracks that open (the solver's stages
+// "crack: ...", its crack scatter among them).
 double crackSeconds(const Simulation& simulation) {
   double seconds = 0;
   for (const StageSeconds& s : simulation.stepStages())
@@ -108,7 +108,7 @@ std::string CostEstimate::afterStep(const Simulation& simulation) {
     seconds_after_first_ = simulation.stepSeconds();
     crack_seconds_after_first_ = crackSeconds(simulation);
   }
-  // Snow stretched at the first timed step stays so: every timed step runs the crack passes.
+  // Snow stretched at the first timed step stays so: every timed step runs the crack step.
   if (steps == 2 && open_cracks_)
     cracks_timed_ = crackSeconds(simulation) > crack_seconds_after_first_;
   if (seconds_after_first_ < 0 || steps < 1 + measured_steps) return "";

@@ -60,8 +60,8 @@ class CostEstimate {
   bool open_cracks_;                 // mpm.open_cracks: steps cost more once the snow stretches
   double particle_steps_;
   double seconds_after_first_ = -1;       // the steps' wall time after the first step
-  double crack_seconds_after_first_ = 0;  // of it, in the crack passes
-  bool cracks_timed_ = false;             // the first timed step ran the crack passes
+  double crack_seconds_after_first_ = 0;  // of it, in the crack stages
+  bool cracks_timed_ = false;             // the first timed step was a crack step
   bool said_ = false;
 };
 

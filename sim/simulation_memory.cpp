@@ -120,11 +120,11 @@ double mpmParticleBytes(const Scene& scene, long n, GridArrays& grid, double& se
     grid.addZeroPages(colours * (mpm.transfer == MpmTransfer::Mls ? 1 : 2), sizeof(V));
   }
   if (mpm.open_cracks) {
-    // The damage gradient; near damage, grains near, takes sides; a side bit per stencil node.
-    per_particle += sizeof(V) + 3 * sizeof(char) + sizeof(std::uint64_t);
-    // Per colour: damage mass, damage, grains, reference norm, two masses; reference, two
-    // normals, two momenta; touched. Per node: damage, grains; reference and two velocities.
-    grid.addZeroPages(6 * colours + 2, sizeof(T));
+    // The step's stamp and what it takes; a side bit per stencil node.
+    per_particle += sizeof(std::uint32_t) + sizeof(std::uint64_t);
+    // Per colour: damage, reference norm, two masses; reference, two normals, two momenta;
+    // touched. Per node: damage, grains; reference and two velocities.
+    grid.addZeroPages(4 * colours + 2, sizeof(T));
     grid.addZeroPages(5 * colours + 3, sizeof(V));
     grid.addZeroPages(colours, sizeof(char));
   }

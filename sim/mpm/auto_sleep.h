@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include "sim/core/collider.h"
@@ -54,13 +55,13 @@ class SleepStep {
 
   // 1 + 3 with resting snow: its momentum is dt times its stress's share, which unit(p, g)
   // scatters at dt = 1, so a block of still particles keeps what it scattered; but a block with a
-  // particle that scattersFresh(p) (near open cracks, where it may take a node's other side)
-  // scatters afresh.
+  // particle that scattersFresh(p) (damaged, where it may take a node's other side) scatters
+  // afresh. stage: the scatter's name among the step's stages.
   template <class Schedule, class Scatter, class Unit, class ScattersFresh>
-  void scatter(Schedule& schedule, Scatter&& scatter, Unit&& unit, ScattersFresh&& scattersFresh,
-               T dt) const {
+  void scatter(Schedule& schedule, std::string_view stage, Scatter&& scatter, Unit&& unit,
+               ScattersFresh&& scattersFresh, T dt) const {
     schedule.scatter(
-        scatter, [&](int p) { return scattersFresh(p) ? 0 : stillness(p); }, unit, dt);
+        scatter, [&](int p) { return scattersFresh(p) ? 0 : stillness(p); }, unit, dt, stage);
   }
 
   // Whether particle p, at x, sleeps through this step, waking it if a collider or its stencil,
@@ -165,8 +166,9 @@ template <int D, class T>
 struct NoSleep {
   using V = Vec<D, T>;
   template <class Schedule, class Scatter, class Unit, class ScattersFresh>
-  void scatter(Schedule& schedule, Scatter&& scatter, Unit&&, ScattersFresh&&, T) const {
-    schedule.scatter(scatter);
+  void scatter(Schedule& schedule, std::string_view stage, Scatter&& scatter, Unit&&,
+               ScattersFresh&&, T) const {
+    schedule.scatter(scatter, stage);
   }
   template <class Kernel>
   bool sleepsThrough(int, const V&, const StencilVelocities<D, T>&) const {

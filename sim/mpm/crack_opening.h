@@ -10,6 +10,10 @@
 // that side's outward normal at the node. Fields that meet are in contact with Coulomb friction
 // (mpm.crack_friction).
 //
+// The damage field and the references lag one step behind the snow: each step's scatter reads
+// the last step's and scatters the next, so a crack step passes over the particles no more often
+// than a plain one. The snow moves a fraction of a cell in a step, and its damage changes slowly.
+//
 // Side 0 is the solver's own grid (its partial grids and GridFields); this class holds the other
 // two fields, the damage field and the nodes' reference directions, per colour of the scatter
 // (summed in colour order, so the results do not depend on the thread count) and per node. The
@@ -40,188 +44,190 @@ class CrackOpening {
   // friction: the Coulomb coefficient between the faces of a crack, and between grains and the
   // intact snow.
   CrackOpening(int nodes, int colours, int particles, T friction)
-      : partial_(colours),
-        gradient_(particles),
-        near_damage_(particles),
-        grains_near_(particles),
-        takes_sides_(particles),
-        side_bits_(particles),
-        friction_(friction) {
+      : partial_(colours), sides_(particles), side_bits_(particles), friction_(friction) {
     for (Partial& p : partial_) p.resize(nodes);
     node_.resize(nodes);
   }
 
-  // The damage field: each particle's mass and damage d = 1 - strength left into colour c, then
-  // per node their mass-weighted mean; and the mass of the failed snow (d = 1), the grains'.
-  template <class Kernel>
-  void scatterDamage(const GridGeometry<D>& grid, const V& x, T mass, T damage, int c) {
-    Partial& g = partial_[c];
-    withStencil<Kernel>(grid, x, [&](const auto& t) {
-      if (damage >= 1)
-        t.scatterScalars({mass, mass, mass},
-                         {g.damage_mass.data(), g.damage.data(), g.grains.data()});
-      else if (damage > 0)
-        t.scatterScalars({mass, mass * damage}, {g.damage_mass.data(), g.damage.data()});
-      else
-        t.scatterScalars({mass}, {g.damage_mass.data()});
-    });
+  // A step with cracks begins; damaged: whether some snow holds damage now. The damage field and
+  // the references this step reads are the last crack step's: zero everywhere after a step
+  // without damage, so a step without cracks in between leaves nothing stale.
+  void beginStep(bool damaged) {
+    must_prime_ = damaged && !holds_damage_;
+    holds_damage_ = damaged;
+    ++step_;
   }
-  void sumDamage(int k) {
+  // Whether the last crack step scattered damage, which the next step's sides read.
+  bool holdsDamage() const { return holds_damage_; }
+
+  // The first step with damage after none (snow that starts damaged, or damage that comes back)
+  // has no last step's field to read: it makes its own from the snow as it is, first the damage
+  // field (primeDamage for each particle, then sumPrimedDamage for each node), then the
+  // references (primeReference, sumPrimedReference).
+  bool mustPrime() const { return must_prime_; }
+  template <class Rows>
+  void primeDamage(const Rows& t, T m, T damage, int c) {
+    Partial& g = partial_[c];  // the mass and the grains' mass in the arrays of sides 1 and 2
+    if (damage >= 1)
+      t.scatterScalars({m, m, m}, {g.mass[0].data(), g.damage.data(), g.mass[1].data()});
+    else if (damage > 0)
+      t.scatterScalars({m, m * damage}, {g.mass[0].data(), g.damage.data()});
+    else
+      t.scatterScalars({m}, {g.mass[0].data()});
+  }
+  void sumPrimedDamage(int k) {
     T mass = 0, damage = 0, grains = 0;
     for (Partial& g : partial_) {
-      mass += g.damage_mass[k];
+      mass += g.mass[0][k];
       damage += g.damage[k];
-      grains += g.grains[k];
-      if (g.damage_mass[k] != 0 || g.damage[k] != 0 || g.grains[k] != 0)
-        g.damage_mass[k] = g.damage[k] = g.grains[k] = 0;
+      grains += g.mass[1][k];
+      if (g.mass[0][k] != 0 || g.damage[k] != 0 || g.mass[1][k] != 0)
+        g.mass[0][k] = g.damage[k] = g.mass[1][k] = 0;
     }
     node_.damage[k] = mass > 0 ? damage / mass : T(0);
     node_.grains[k] = grains;
   }
+  template <class Rows>
+  void primeReference(const Rows& t, T inertia_inverse, int c) {
+    if (!(t.largest(node_.damage.data()) > 0)) return;
+    const V gradient = inertia_inverse * t.gatherScalarMoment(node_.damage.data());
+    const T norm = gradient.norm();
+    if (!(norm > 0)) return;
+    Partial& g = partial_[c];
+    t.forEachNode([&](int k, T w, const V&) { refer(g, k, w, gradient, norm); });
+  }
+  void sumPrimedReference(int k) { node_.reference[k] = largestReference(k); }
 
-  // Particle p's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), and the
-  // largest of them among the particles that reach each node, into colour c; then per node, the
-  // largest over the colours in colour order (ties keep the first): its reference direction.
-  template <class Kernel>
-  void findGradient(const GridGeometry<D>& grid, const V& x, T inertia_inverse, int p, int c) {
-    withStencil<Kernel>(grid, x, [&](const auto& t) {
-      const bool near = t.largest(node_.damage.data()) > 0;
-      near_damage_[p] = near;
-      grains_near_[p] = near && t.largest(node_.grains.data()) > 0;
-      // Until decideSides, which a kept still block's snow (far from damage) skips.
-      takes_sides_[p] = 0;
-      const V gradient =
-          near ? V(inertia_inverse * t.gatherScalarMoment(node_.damage.data())) : V::Zero();
-      gradient_[p] = gradient;
+  // Particle p's scatter, rows t of its stencil, in colour c: MLS's scatter (the solver's
+  // scatterParticle), node i taking w m and w (m v + A (x_i - x_p)), into the field of each node
+  // the particle takes. The sides come from the last step's damage field d_i, the damage field
+  // lagging a step behind the snow: near damage (a node of the stencil with d_i > 0) the
+  // particle's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), decides them:
+  // side 0 of node i when it points the way of the node's reference direction r_i, else side 1;
+  // and the gradient goes into the next step's r_i, the largest among the particles that reach
+  // the node. Failed snow (damage 1) takes the grains everywhere; intact snow near grains also
+  // adds w m (x_i - x_p) to its side's outward normal. The damage m d goes into the next field.
+  template <class Rows>
+  void scatter(const Rows& t, int p, T damage, T inertia_inverse, T m, const V& mv, const M& A,
+               T* mass0, V* momentum0, int c) {
+    static_assert(Rows::rows * Rows::row_nodes <= 64, "one bit a node");
+    Partial& g = partial_[c];
+    const bool failed = damage >= 1;
+    std::uint64_t bits = 0;
+    bool grains_near = false;
+    char touched = damage > 0 ? touched_damage : 0;
+    if (t.largest(node_.damage.data()) > 0) {
+      const V gradient = inertia_inverse * t.gatherScalarMoment(node_.damage.data());
+      grains_near = t.largest(node_.grains.data()) > 0;
       const T norm = gradient.norm();
-      if (!(norm > 0)) return;
-      Partial& g = partial_[c];
+      const bool refers = holds_damage_ && norm > 0;
+      if (refers) touched |= touched_reference;
+      int n = 0;
       t.forEachNode([&](int k, T w, const V&) {
-        if (w > 0 && norm > g.reference_norm[k]) {
-          g.reference_norm[k] = norm;
-          g.reference[k] = gradient;
-        }
+        if (!failed) bits |= std::uint64_t(side(gradient, false, k)) << n;
+        ++n;
+        if (refers) refer(g, k, w, gradient, norm);
       });
+    }
+    if (damage > 0) t.scatterScalars({m * damage}, {g.damage.data()});
+    const char takes = failed ? takes_grains : grains_near || bits != 0 ? takes_own_sides : 0;
+    sides_[p] = stamp() | takes;
+    side_bits_[p] = bits;
+    if (!takes) {
+      t.scatterAffine(m, mv, A, mass0, momentum0);
+      if (touched) t.forEachNode([&](int k, T, const V&) { g.touched[k] |= touched; });
+      return;
+    }
+    T* const mass[3] = {mass0, g.mass[0].data(), g.mass[1].data()};
+    V* const momentum[3] = {momentum0, g.momentum[0].data(), g.momentum[1].data()};
+    const auto field = [&](int n) { return failed ? grains : int(bits >> n & 1); };
+    t.scatterAffineSplit(m, mv, A, mass, momentum, field);
+    const bool normals = !failed && grains_near;
+    touched |= normals ? touched_sides | touched_normals : touched_sides;
+    int n = 0;
+    t.forEachNode([&](int k, T w, const V& dx) {
+      g.touched[k] |= touched;
+      if (normals) g.normal[field(n)][k] += (w * m) * dx;
+      ++n;
     });
   }
-  void sumReference(int k) {
-    T largest = 0;
-    V reference = V::Zero();
-    for (Partial& g : partial_) {
-      if (g.reference_norm[k] > largest) {
-        largest = g.reference_norm[k];
-        reference = g.reference[k];
-      }
-      if (g.reference_norm[k] != 0) {
-        g.reference_norm[k] = 0;
-        g.reference[k].setZero();
-      }
-    }
-    node_.reference[k] = reference;
-  }
 
-  // Whether a node of particle p's stencil holds damage.
-  bool nearDamage(int p) const { return near_damage_[p]; }
-
-  // Whether particle p scatters to and gathers from the crack's fields: failed snow does, and so
-  // does intact snow that reaches grains (it gives them its outward normals) or takes side 1 at a
-  // node. The rest takes side 0 of every node, and the solver's own scatter and gather do for it.
-  // Decided before the scatter, once the nodes' references are known, with the side of each node
-  // kept for the scatter and the gather.
-  template <class Kernel>
-  bool decideSides(const GridGeometry<D>& grid, const V& x, int p, bool failed) {
-    static_assert(Stencil<D, Kernel, T>::nodes <= 64, "one bit a node");
-    std::uint64_t bits = 0;
-    if (!failed && near_damage_[p]) {
-      const V gradient = gradient_[p];
-      int n = 0;
-      forEachNode<Kernel>(grid, x, [&](int k, T, const V&) {
-        bits |= std::uint64_t(side(gradient, false, k)) << n++;
-      });
-    }
-    side_bits_[p] = bits;
-    takes_sides_[p] = failed ? takes_grains : grains_near_[p] || bits != 0 ? takes_own_sides : 0;
-    return takes_sides_[p];
-  }
-  bool takesSides(int p) const { return takes_sides_[p]; }
-  // The velocities particle p meets at its stencil's nodes: those of the fields it scattered to
-  // this step (the grains' if it had failed then), else side 0's, v0.
-  StencilVelocities<D, T> velocitiesOf(int p, const V* v0) const {
-    if (!takes_sides_[p]) return {v0};
-    if (takes_sides_[p] == takes_grains) return {node_.velocity[1].data()};
-    return {nullptr, {v0, node_.velocity[0].data()}, side_bits_[p]};
-  }
-
-  // Which field of node k particle p scatters to and gathers from: the grains once it failed,
-  // else the side its damage gradient lies on (side 0 where the node has no reference).
+  // Which field of node k snow of damage gradient `gradient` takes: the grains once it failed,
+  // else the side the gradient lies on (side 0 where the node has no reference).
   int side(const V& gradient, bool failed, int k) const {
     return failed ? grains : int(gradient.dot(node_.reference[k]) < 0);
   }
+  // Whether particle p scattered to the crack's fields this step (and gathers from them).
+  bool takesSides(int p) const { return takes(p) != 0; }
+  // The velocities particle p meets at its stencil's nodes: those of the fields it scattered to
+  // this step (the grains' if it had failed then), else side 0's, v0.
+  StencilVelocities<D, T> velocitiesOf(int p, const V* v0) const {
+    const char t = takes(p);
+    if (!t) return {v0};
+    if (t == takes_grains) return {node_.velocity[1].data()};
+    return {nullptr, {v0, node_.velocity[0].data()}, side_bits_[p]};
+  }
 
-  // MLS's scatter (the solver's scatterParticle) with sides, after decideSides: node k of the
-  // stencil takes w m and w (m v + A (x_i - x_p)) into its side, side 0 being mass0 and momentum0
-  // (the solver's partial grid of colour c); intact snow near grains also adds w m (x_i - x_p) to
-  // its side's outward normal.
-  template <class Kernel>
-  void scatter(const GridGeometry<D>& grid, const V& x, int p, bool failed, T m, const V& mv,
-               const M& A, T* mass0, V* momentum0, int c) {
-    Partial& g = partial_[c];
-    T* const mass[3] = {mass0, g.mass[0].data(), g.mass[1].data()};
-    V* const momentum[3] = {momentum0, g.momentum[0].data(), g.momentum[1].data()};
+  // MLS's gather with sides: v_p = sum_i w v_i and B_p = sum_i w v_i (x_i - x_p)^T, each node's
+  // v_i that of the field particle p scattered to there (side 0's from v0, the solver's grid).
+  template <class Rows>
+  V gather(const Rows& t, int p, const V* v0, M& B) const {
+    const V* const velocity[3] = {v0, node_.velocity[0].data(), node_.velocity[1].data()};
+    const bool failed = takes(p) == takes_grains;
     const std::uint64_t sides = side_bits_[p];
-    const auto field = [&](int n) { return failed ? grains : int(sides >> n & 1); };
-    const bool normals = !failed && grains_near_[p];
-    withStencil<Kernel>(grid, x, [&](const auto& t) {
-      t.scatterAffineSplit(m, mv, A, mass, momentum, field);
-      int n = 0;
-      t.forEachNode([&](int k, T w, const V& dx) {
-        g.touched[k] |= normals ? touched_sides | touched_normals : touched_sides;
-        if (normals) g.normal[field(n)][k] += (w * m) * dx;
-        ++n;
-      });
-    });
+    return t.gatherAffineSplit(
+        velocity, [&](int n) { return failed ? grains : int(sides >> n & 1); }, B);
   }
 
   // Node k once the solver has its side 0 (v0 with gravity, before collisions; mass0 its mass):
   // the other fields summed over the colours with gravity; then the two sides, where they
   // approach each other, and the grains, where they move into either side, in contact with
   // Coulomb friction; last collide(v) on each field that has mass, so that no contact moves a
-  // field into a collider.
+  // field into a collider. Then the next step's damage field, the mass-weighted mean damage of the
+  // snow at the node, and reference direction, the largest over the colours in colour order
+  // (ties keep the first).
   template <class Collide>
   void updateNode(int k, T mass0, V& v0, T dt, const V& gravity, Collide&& collide) {
-    // A node that no particle with sides reached has side 0 alone, and its other fields' partial
-    // sums are zero: no particle gathers from them there. Nor do the colours no such particle
-    // reached hold anything there, nor their normals where none near grains did.
+    // A node that no particle with sides, damage or a damage gradient reached has side 0 alone, and
+    // its other fields' partial sums are zero: no particle gathers from them there. Nor do the
+    // colours no such particle reached hold anything there.
     char any = 0;
     for (const Partial& g : partial_) any |= g.touched[k];
     if (!any) {
       if (mass0 > 0) collide(v0);
+      clearNode(k);
       return;
     }
     T mass[3] = {mass0, 0, 0};
     V* velocity[3] = {&v0, &node_.velocity[0][k], &node_.velocity[1][k]};
     V normal[2] = {V::Zero(), V::Zero()};
+    T damage = 0;
     for (int f = 1; f < 3; ++f) velocity[f]->setZero();
     for (Partial& g : partial_) {
       const char touched = g.touched[k];
       if (!touched) continue;
       g.touched[k] = 0;
-      for (int f = 1; f < 3; ++f) {
-        T& m = g.mass[f - 1][k];  // the partial arrays hold fields 1 and 2 only
-        V& momentum = g.momentum[f - 1][k];
-        mass[f] += m;
-        *velocity[f] += momentum;
-        if (m != 0) {
+      if (touched & touched_sides)
+        for (int f = 1; f < 3; ++f) {
+          T& m = g.mass[f - 1][k];  // the partial arrays hold fields 1 and 2 only
+          V& momentum = g.momentum[f - 1][k];
+          mass[f] += m;
+          *velocity[f] += momentum;
           m = 0;
           momentum.setZero();
         }
-      }
-      if (!(touched & touched_normals)) continue;
-      for (int side = 0; side < 2; ++side) {
-        normal[side] += g.normal[side][k];
-        g.normal[side][k].setZero();
+      if (touched & touched_normals)
+        for (int side = 0; side < 2; ++side) {
+          normal[side] += g.normal[side][k];
+          g.normal[side][k].setZero();
+        }
+      if (touched & touched_damage) {
+        damage += g.damage[k];
+        g.damage[k] = 0;
       }
     }
+    const V next_reference = largestReference(k);
+    const T node_mass = mass[0] + mass[1] + mass[2];
     for (int f = 1; f < 3; ++f)
       *velocity[f] = mass[f] > 0 ? V(*velocity[f] / mass[f] + dt * gravity) : V::Zero();
     // Side 0 lies behind the reference direction r: the sides approach while (v0 - v1).r > 0.
@@ -235,23 +241,53 @@ class CrackOpening {
         touch(mass[side], *velocity[side], mass[grains], *velocity[grains], normal[side]);
     for (int f = 0; f < 3; ++f)
       if (mass[f] > 0) collide(*velocity[f]);
+    node_.damage[k] = node_mass > 0 ? damage / node_mass : T(0);
+    node_.grains[k] = mass[grains];
+    node_.reference[k] = next_reference;
   }
 
-  // MLS's gather with sides: v_p = sum_i w v_i and B_p = sum_i w v_i (x_i - x_p)^T, each node's
-  // v_i that of particle p's field there (side 0's from v0, the solver's grid).
-  template <class Kernel>
-  V gather(const GridGeometry<D>& grid, const V& x, int p, bool failed, const V* v0, M& B) const {
-    const V* const velocity[3] = {v0, node_.velocity[0].data(), node_.velocity[1].data()};
-    const std::uint64_t sides = side_bits_[p];
-    V v;
-    withStencil<Kernel>(grid, x, [&](const auto& t) {
-      v = t.gatherAffineSplit(
-          velocity, [&](int n) { return failed ? grains : int(sides >> n & 1); }, B);
-    });
-    return v;
+  // What the next step reads of the nodes (the damage field, the grains' mass, the references),
+  // for a checkpoint: the nodes where any is not zero, and back.
+  template <class Writer>
+  void save(Writer& out) const {
+    std::vector<int> nodes;
+    for (int k = 0; k < int(node_.damage.size()); ++k)
+      if (node_.damage[k] != 0 || node_.grains[k] != 0 || !node_.reference[k].isZero(0))
+        nodes.push_back(k);
+    out.value(holds_damage_);
+    out.array(nodes);
+    for (const int k : nodes) {
+      out.value(node_.damage[k]);
+      out.value(node_.grains[k]);
+      out.value(node_.reference[k]);
+    }
+  }
+  template <class Reader>
+  void load(Reader& in) {
+    for (int k = 0; k < int(node_.damage.size()); ++k) clearNode(k);
+    holds_damage_ = in.template value<bool>();
+    std::vector<int> nodes;
+    in.array(nodes);
+    for (const int k : nodes) {
+      if (k < 0 || k >= int(node_.damage.size())) in.fail("a crack node outside the grid");
+      node_.damage[k] = in.template value<T>();
+      node_.grains[k] = in.template value<T>();
+      node_.reference[k] = in.template value<V>();
+    }
   }
 
  private:
+  // The step's stamp in sides_, above takes_*: a side taken in an earlier step (or by the
+  // particle stored there before a sort) reads as none.
+  std::uint32_t stamp() const { return std::uint32_t(step_) << 2; }
+  char takes(int p) const {
+    const std::uint32_t s = sides_[p];
+    return (s & ~3u) == stamp() ? char(s & 3u) : 0;
+  }
+  void clearNode(int k) {
+    if (node_.damage[k] != 0 || node_.grains[k] != 0) node_.damage[k] = node_.grains[k] = 0;
+    if (!node_.reference[k].isZero(0)) node_.reference[k].setZero();
+  }
   // Fields a and b in contact across a surface of normal n (from a to b, any length), a moving
   // into b: their normal velocities become their centre of mass's, and the slip along the surface
   // slows by at most friction times that normal change, stopping if that suffices (Coulomb
@@ -266,60 +302,74 @@ class CrackOpening {
     v_a += change;
     v_b -= (m_a / m_b) * change;
   }
-  // f(t) with the stencil at x as rows (TensorStencil).
-  template <class Kernel, class F>
-  static void withStencil(const GridGeometry<D>& grid, const V& x, F&& f) {
-    const Stencil<D, Kernel, T> s(x, T(1 / grid.h));
-    f(TensorStencil<D, Kernel, T>(grid, s, x));
-  }
-  // f(k, w, x_i - x_p) for each node k of the stencil at x.
-  template <class Kernel, class F>
-  static void forEachNode(const GridGeometry<D>& grid, const V& x, F&& f) {
-    withStencil<Kernel>(grid, x, [&](const auto& t) { t.forEachNode(f); });
-  }
-  // takes_sides_: the particle scattered to its sides (or, intact near grains, gave them its
-  // normals), or it had failed and scattered to the grains.
+  // What a particle scattered to this step: its sides or, failed, the grains.
   static constexpr char takes_own_sides = 1, takes_grains = 2;
-  // Bits of Partial::touched: a particle with sides scattered to the node; one near grains, its
-  // normal too.
-  static constexpr char touched_sides = 1, touched_normals = 2;
+  // Bits of Partial::touched, what particles scattered to the node: a particle with sides; one
+  // near grains, its normal too; damaged snow, its damage; snow near damage, its gradient.
+  static constexpr char touched_sides = 1, touched_normals = 2, touched_damage = 4,
+                        touched_reference = 8;
   template <class U>
   using ZeroPageVector = std::vector<U, ZeroPageAllocator<U>>;
   // What one colour's rows scatter. Grid-sized, only the nodes near the snow take memory, and
   // each is zeroed by the node pass that sums it.
   struct Partial {
-    ZeroPageVector<T> damage_mass, damage, grains, reference_norm;
+    ZeroPageVector<T> damage, reference_norm;
     ZeroPageVector<V> reference;
     ZeroPageVector<V> normal[2];  // each side's outward normal
     ZeroPageVector<T> mass[2];    // side 1, grains
     ZeroPageVector<V> momentum[2];
-    ZeroPageVector<char> touched;  // what particles with sides scattered here (touched_*)
+    ZeroPageVector<char> touched;  // touched_* bits
     void resize(int nodes) {
-      for (auto* a : {&damage_mass, &damage, &grains, &reference_norm, &mass[0], &mass[1]})
-        a->resize(nodes);
+      for (auto* a : {&damage, &reference_norm, &mass[0], &mass[1]}) a->resize(nodes);
       for (auto* a : {&reference, &normal[0], &normal[1], &momentum[0], &momentum[1]})
         a->resize(nodes);
       touched.resize(nodes);
     }
   };
   struct Nodes {
-    ZeroPageVector<T> damage, grains;  // grains: the failed snow's mass
+    // The last crack step's: the damage field, the failed snow's mass, the reference directions.
+    ZeroPageVector<T> damage, grains;
     ZeroPageVector<V> reference;
-    ZeroPageVector<V> velocity[2];  // side 1, grains
+    ZeroPageVector<V> velocity[2];  // this step's side 1, grains
     void resize(int nodes) {
       damage.resize(nodes);
       grains.resize(nodes);
       for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
     }
   };
+  // Gradient `gradient` of norm `norm` reaching node k with weight w, into colour g's largest.
+  static void refer(Partial& g, int k, T w, const V& gradient, T norm) {
+    if (w > 0 && norm > g.reference_norm[k]) {
+      g.reference_norm[k] = norm;
+      g.reference[k] = gradient;
+    }
+  }
+  // The largest gradient over the colours that reached node k, in colour order (ties keep the
+  // first), the colours' emptied.
+  V largestReference(int k) {
+    T largest = 0;
+    V reference = V::Zero();
+    for (Partial& g : partial_) {
+      if (g.reference_norm[k] > largest) {
+        largest = g.reference_norm[k];
+        reference = g.reference[k];
+      }
+      if (g.reference_norm[k] != 0) {
+        g.reference_norm[k] = 0;
+        g.reference[k].setZero();
+      }
+    }
+    return reference;
+  }
   std::vector<Partial> partial_;
   Nodes node_;
-  // Per particle, this step's: the damage gradient; whether damage, grains are near; whether it
-  // takes sides (decideSides).
-  std::vector<V> gradient_;
-  std::vector<char> near_damage_, grains_near_, takes_sides_;
-  std::vector<std::uint64_t> side_bits_;  // bit n: side 1 at node n of the stencil (row by row)
+  // Per particle, this step's: stamp() | takes_*, and bit n: side 1 at node n of the stencil (row
+  // by row).
+  std::vector<std::uint32_t> sides_;
+  std::vector<std::uint64_t> side_bits_;
   T friction_;
+  long step_ = 0;
+  bool holds_damage_ = false, must_prime_ = false;
 };
 
 // MLS's affine momentum of particle p, which its scatter spreads with m_p v_p:
@@ -340,8 +390,9 @@ struct OneVelocityPerNode {
   using V = Vec<D, T>;
   const GridFields<D, T>& fields;
 
+  static constexpr std::string_view scatter_stage = "scatter";
   template <class Schedule>
-  void findSides(Schedule&) {}
+  void prime(Schedule&) {}
   bool scattersFresh(int) const { return false; }
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
@@ -360,67 +411,72 @@ struct OneVelocityPerNode {
   StencilVelocities<D, T> velocitiesOf(int) const { return {fields.velocity.data()}; }
 };
 
-// With mpm.open_cracks once some snow is damaged: the damage field and the sides first; then near
-// damage the scatter, the node update and the gather with CrackOpening's fields, elsewhere the
-// plain transfers. MLS only.
+// With mpm.open_cracks once some snow is damaged (and the step after, which clears the damage
+// field): the scatter, the node update and the gather with CrackOpening's fields. MLS only.
 template <int D, class T, class Kernel>
 class OpenCracks {
  public:
   using V = Vec<D, T>;
   using M = Mat<D, T>;
+  // The stage's name tells the cost estimate (app/cost_estimate.cpp) that the crack step ran.
+  static constexpr std::string_view scatter_stage = "crack: scatter";
 
   OpenCracks(CrackOpening<D, T>& cracks, MpmParticles<D, T>& particles,
              const SnowMaterial& material, const GridGeometry<D>& grid,
-             const GridFields<D, T>& fields, T inertia_inverse)
+             const GridFields<D, T>& fields, T inertia_inverse, bool damaged)
       : cracks_(cracks),
         particles_(particles),
         material_(material),
         grid_(grid),
         fields_(fields),
         inertia_inverse_(inertia_inverse),
-        isa_(vectorIsa()) {}
+        isa_(vectorIsa()) {
+    cracks_.beginStep(damaged);
+  }
 
-  // The damage field, then each particle's damage gradient and each node's reference direction,
-  // which decide the sides of the scatter and the gather. Both passes take every particle, asleep
-  // or not, so that the sides see all the snow's mass and damage. The stages named "crack: ..."
-  // tell the cost estimate (app/cost_estimate.cpp) that these passes ran.
+  // The damage field and the references of the first step with damage (CrackOpening::mustPrime),
+  // over every particle, asleep or not, so that they see all the snow's mass and damage.
   template <class Schedule>
-  void findSides(Schedule& schedule) {
+  void prime(Schedule& schedule) {
+    if (!cracks_.mustPrime()) return;
     using PartialGrid = typename Schedule::PartialGrid;
+    const auto withRows = [&](int p, auto&& f) {
+      runFor(isa_, [&] {
+        const V& x = particles_.x[p];
+        const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
+        f(TensorStencil<D, Kernel, T>(grid_, s, x));
+      });
+    };
     schedule.scatter(
         [&](int p, PartialGrid& g) {
-          runFor(isa_, [&] {
-            cracks_.template scatterDamage<Kernel>(grid_, particles_.x[p], particles_.mass[p],
-                                                   1 - strength(p), g.colour);
+          withRows(p, [&](const auto& t) {
+            cracks_.primeDamage(t, particles_.mass[p], 1 - strength(p), g.colour);
           });
         },
-        "crack: damage");
-    schedule.forScatteredNodes("crack: damage field", [&](int k) { cracks_.sumDamage(k); });
+        "crack: prime damage");
+    schedule.forScatteredNodes("crack: prime damage field",
+                               [&](int k) { cracks_.sumPrimedDamage(k); });
     schedule.scatter(
         [&](int p, PartialGrid& g) {
-          runFor(isa_, [&] {
-            cracks_.template findGradient<Kernel>(grid_, particles_.x[p], inertia_inverse_, p,
-                                                  g.colour);
-          });
+          withRows(p,
+                   [&](const auto& t) { cracks_.primeReference(t, inertia_inverse_, g.colour); });
         },
-        "crack: gradients");
-    schedule.forScatteredNodes("crack: sides", [&](int k) { cracks_.sumReference(k); });
+        "crack: prime references");
+    schedule.forScatteredNodes("crack: prime reference field",
+                               [&](int k) { cracks_.sumPrimedReference(k); });
   }
 
   // 1 + 3: into each node's side.
   template <class PartialGrid, class Plain>
-  void scatter(int p, PartialGrid& g, T dt, Plain&& plain) const {
-    bool sides = false;
+  void scatter(int p, PartialGrid& g, T dt, Plain&&) const {
     runFor(isa_, [&] {
-      sides = cracks_.template decideSides<Kernel>(grid_, particles_.x[p], p, failed(p));
-    });
-    if (!sides) return plain(p, g);
-    runFor(isa_, [&] {
+      const V& x = particles_.x[p];
+      const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
       const T m = particles_.mass[p];
-      const M A = mlsAffineMomentum(particles_, p, dt, inertia_inverse_);
-      cracks_.template scatter<Kernel>(grid_, particles_.x[p], p, failed(p), m,
-                                       V(m * particles_.v[p]), A, g.mass.data(), g.momentum.data(),
-                                       g.colour);
+      cracks_.scatter(TensorStencil<D, Kernel, T>(grid_, s, x), p, 1 - strength(p),
+                      inertia_inverse_, m, V(m * particles_.v[p]),
+                      mlsAffineMomentum(particles_, p, dt, inertia_inverse_), g.mass.data(),
+                      g.momentum.data(), g.colour);
     });
   }
   // 4, 5 after side 0's velocity and gravity: the other fields', the fields' contact where they
@@ -434,15 +490,18 @@ class OpenCracks {
   void gather(int p, Plain&& plain) {
     if (!cracks_.takesSides(p)) return plain(p);
     runFor(isa_, [&] {
+      const V& x = particles_.x[p];
+      const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
       M B;
-      particles_.v[p] = cracks_.template gather<Kernel>(grid_, particles_.x[p], p, failed(p),
-                                                        fields_.velocity.data(), B);
+      particles_.v[p] =
+          cracks_.gather(TensorStencil<D, Kernel, T>(grid_, s, x), p, fields_.velocity.data(), B);
       particles_.C[p] = inertia_inverse_ * B;
     });
   }
-  // Whether particle p, asleep or not, must scatter afresh: near damage it may take sides, which a
-  // still block's kept scatter does not. (Asleep, its damage does not change: J_P stays.)
-  bool scattersFresh(int p) const { return cracks_.nearDamage(p); }
+  // Whether particle p, asleep or not, must scatter afresh: damaged, it may take sides, which a
+  // still block's kept scatter does not. (Asleep, its damage does not change: J_P stays.) Snow
+  // with no damage of its own that sleeps in a kept block takes side 0 until it wakes.
+  bool scattersFresh(int p) const { return particles_.J_P[p] > 1; }
   // The velocities particle p meets at its stencil's nodes: its fields'.
   StencilVelocities<D, T> velocitiesOf(int p) const {
     return cracks_.velocitiesOf(p, fields_.velocity.data());
@@ -450,7 +509,6 @@ class OpenCracks {
 
  private:
   T strength(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]); }
-  bool failed(int p) const { return strength(p) <= 0; }  // no strength left
 
   CrackOpening<D, T>& cracks_;
   MpmParticles<D, T>& particles_;

@@ -116,12 +116,16 @@ void MpmSolver<D, T>::withParts(F&& f) {
     f(opening, sleep);
   };
   if constexpr (Transfer::mls) {
-    // Until some snow is stretched past J_P = 1 there is no damage, and one velocity a node does.
-    const auto damaged = [](T J_P) { return J_P > 1; };
-    if (cracks_ && std::any_of(particles_.J_P.begin(), particles_.J_P.end(), damaged)) {
-      OpenCracks<D, T, Kernel> opening(*cracks_, particles_, material_, grid_, fields_,
-                                       inertia_inverse_);
-      return withSleep(opening);
+    // Until some snow is stretched past J_P = 1 there is no damage, and one velocity a node does;
+    // once it has healed, one more crack step clears the damage field.
+    if (cracks_) {
+      const bool damaged =
+          std::any_of(particles_.J_P.begin(), particles_.J_P.end(), [](T J_P) { return J_P > 1; });
+      if (damaged || cracks_->holdsDamage()) {
+        OpenCracks<D, T, Kernel> opening(*cracks_, particles_, material_, grid_, fields_,
+                                         inertia_inverse_, damaged);
+        return withSleep(opening);
+      }
     }
   }
   OneVelocityPerNode<D, T> opening{fields_};
@@ -140,16 +144,16 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
   // stages each meet on their own; the explicit stages share the team's threads, but for the
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !ranks_.distributed(), [&] {
-    // Open cracks: the side of each node each particle takes.
-    opening.findSides(schedule_);
-    // 1, 3: mass, momentum and forces to the grid; resting snow's momentum is dt times its
-    // stress's share, kept by blocks far from open cracks.
+    // Open cracks, at the first step with damage: its damage field and references.
+    opening.prime(schedule_);
+    // 1, 3: mass, momentum and forces to the grid (with open cracks, into each node's side);
+    // resting snow's momentum is dt times its stress's share, kept by blocks without damage.
     sleep.scatter(
-        schedule_,
+        schedule_, opening.scatter_stage,
         [&](int p, PartialGrid& g) {
           opening.scatter(p, g, dt, [&](int q, PartialGrid& h) { plainScatter(q, h, dt); });
         },
-        // A kept block is far from damage, where its snow takes side 0 alone: plain snow's scatter.
+        // A kept block holds no damage, and its snow takes side 0 alone: plain snow's scatter.
         [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); },
         [&](int p) { return opening.scattersFresh(p); }, dt);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).

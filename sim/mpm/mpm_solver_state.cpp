@@ -198,6 +198,7 @@ void MpmSolver<D, T>::saveRankState(StateWriter& out) const {
   out.value(step_when_exceeded_);
   out.value(solves_);
   out.value(sleeper_ ? sleeper_->tally() : SleepTally{});
+  if (cracks_) cracks_->save(out);  // the damage field the next step reads
   ranks_.saveSlabs(out);
 }
 
@@ -215,6 +216,7 @@ void MpmSolver<D, T>::loadRankState(StateReader& in) {
   SleepTally sleep;
   in.value(sleep);
   if (sleeper_) sleeper_->restore(sleep);
+  if (cracks_) cracks_->load(in);
   ranks_.loadSlabs(in);
   // Each step writes the grid nodes near the snow and leaves the rest zero, as here.
   fields_.resize(grid_.nodeCount());

@@ -143,7 +143,8 @@ class ParticleGridSchedule final : public LoopRunner {
   // scatter with f. Without keepStillBlocks(), and in 2D, whose rows are binned only now and
   // then, every particle scatters with f.
   template <class F, class Stillness, class Unit>
-  void scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale);
+  void scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale,
+               std::string_view stage = "scatter");
   template <class F>
   void updateNodes(Fields& fields, F&& f);
   // updateNodes with between() run on the calling thread once every node is summed and before f
@@ -319,10 +320,11 @@ void ParticleGridSchedule<D, P>::scatter(F&& f, std::string_view stage) {
 
 template <int D, class P>
 template <class F, class Stillness, class Unit>
-void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale) {
-  if (!still_) return scatter(f);
-  const StageClock::Scope time = timeStage("scatter");
-  team_.forEachPart("scatter", [&](int part) {
+void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale,
+                                         std::string_view stage) {
+  if (!still_) return scatter(f, stage);
+  const StageClock::Scope time = timeStage(stage);
+  team_.forEachPart(stage, [&](int part) {
     const auto [first, last] = binning_.partRows(part);
     for (int row = first; row < last; ++row) {
       PartialGrid& g = partial_[binning_.rowColour(row)];

@@ -339,7 +339,7 @@ std::pair<double, double> damagedAndAllAsleep(const Solver& s) {
 }
 
 // In 3D with open cracks, the damaged ball falls asleep on the pile too, its nodes' velocities
-// those of its own fields; the pile's blocks far from damage keep their scatter. One and two
+// those of its own fields; the pile's blocks without damage keep their scatter. One and two
 // threads and a resume agree bit for bit, and the sleeping ball rests where the awake one does.
 THREADED_TEST(AutoSleep, WithOpenCracksDamagedSnowSleepsOnAnyThreadCountAndAfterAResume) {
   Json j = crackedPileAndBall3d();

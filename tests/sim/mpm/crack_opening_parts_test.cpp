@@ -1,5 +1,5 @@
 // The per-particle and per-node functions of CrackOpening (sim/mpm/crack_opening.h), called in the
-// order the solver's step calls them, on a 10 x 10 grid of unit cells with the quadratic kernel.
+// order the solver's steps call them, on a 10 x 10 grid of unit cells with the quadratic kernel.
 // Positions sit on quarter cells, where the kernel's weights are exact binary fractions: on node i,
 // 1/8 3/4 1/8 at nodes i - 1, i, i + 1; a quarter cell below node i, 9/32 11/16 1/32 there.
 #include "sim/mpm/crack_opening.h"
@@ -47,17 +47,53 @@ struct Particle {
   V x;
   int colour;
 };
+constexpr int kParticles = 16;
+constexpr int kFirstSpot = 8;  // the spots of damage are particles kFirstSpot on
 
-// The damage field, then each particle's gradient and each node's reference: the first passes of
-// the solver's step with cracks.
+std::vector<Real> zeroMass() {
+  return std::vector<Real>(kGrid.nodeCount(), 0);
+}
+std::vector<V> zeroMomentum() {
+  return std::vector<V>(kGrid.nodeCount(), V::Zero());
+}
+
+// Particle p's scatter, at x in colour c, of mass m, momentum m v (no affine part) and its
+// damage, side 0's share into mass0 and momentum0.
+void scatter(Cracks& cracks, const V& x, int p, Real damage, Real m, const V& v, int colour,
+             std::vector<Real>& mass0, std::vector<V>& momentum0) {
+  const Stencil<2, Kernel, Real> s(x, 1 / kGrid.h);
+  cracks.scatter(TensorStencil<2, Kernel, Real>(kGrid, s, x), p, damage, kInertiaInverse, m,
+                 V(m * v), M::Zero(), mass0.data(), momentum0.data(), colour);
+}
+
+// Particle p's gather at x from side 0's velocities v0: v_p, and B.
+V gather(const Cracks& cracks, const V& x, int p, const std::vector<V>& v0, M& B) {
+  const Stencil<2, Kernel, Real> s(x, 1 / kGrid.h);
+  return cracks.gather(TensorStencil<2, Kernel, Real>(kGrid, s, x), p, v0.data(), B);
+}
+
+// Two crack steps as the solver takes them, then the start of a third, the step under test: the
+// spots' damage makes the damage field, which the next step reads; in it the particles' damage
+// gradients make the nodes' references, which the third step reads. The particles are massless,
+// so that the spots alone make the field.
 void findSides(Cracks& cracks, const std::vector<Damaged>& damaged,
                const std::vector<Particle>& particles) {
-  for (const Damaged& d : damaged)
-    cracks.scatterDamage<Kernel>(kGrid, d.x, d.mass, d.damage, d.colour);
-  for (int k = 0; k < kGrid.nodeCount(); ++k) cracks.sumDamage(k);
-  for (int p = 0; p < static_cast<int>(particles.size()); ++p)
-    cracks.findGradient<Kernel>(kGrid, particles[p].x, kInertiaInverse, p, particles[p].colour);
-  for (int k = 0; k < kGrid.nodeCount(); ++k) cracks.sumReference(k);
+  for (int step = 0; step < 2; ++step) {
+    cracks.beginStep(true);
+    std::vector<Real> mass0 = zeroMass();
+    std::vector<V> momentum0 = zeroMomentum();
+    for (int i = 0; i < static_cast<int>(damaged.size()); ++i) {
+      const Damaged& d = damaged[i];
+      scatter(cracks, d.x, kFirstSpot + i, d.damage, d.mass, V::Zero(), d.colour, mass0, momentum0);
+    }
+    for (int p = 0; p < static_cast<int>(particles.size()); ++p)
+      scatter(cracks, particles[p].x, p, 0, 0, V::Zero(), particles[p].colour, mass0, momentum0);
+    for (int k = 0; k < kGrid.nodeCount(); ++k) {
+      V v = V::Zero();
+      cracks.updateNode(k, mass0[k], v, 0, V::Zero(), [](V&) {});
+    }
+  }
+  cracks.beginStep(true);
 }
 
 // The side a particle of gradient along +x or -x takes at node k.
@@ -84,14 +120,13 @@ struct TwoSides {
   std::vector<V> momentum0 = std::vector<V>(kGrid.nodeCount(), V::Zero());
 
   explicit TwoSides(Real friction = 0.1, int colour_a = 2, int colour_b = 0)
-      : cracks(kGrid.nodeCount(), kColours, 2, friction) {
+      : cracks(kGrid.nodeCount(), kColours, kParticles, friction) {
     findSides(cracks, {{V(5, 5), 1, 1, 0}}, {{xa, colour_a}, {xb, colour_b}});
   }
   // b's 2 kg at velocity v, no affine velocity, scattered into its sides.
   void scatterB(const V& v, bool failed = false) {
-    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xb, b, failed));
-    cracks.scatter<Kernel>(kGrid, xb, b, failed, 2, V(2 * v), M::Zero(), mass0.data(),
-                           momentum0.data(), 0);
+    scatter(cracks, xb, b, failed ? 1 : 0, 2, v, 0, mass0, momentum0);
+    EXPECT_TRUE(cracks.takesSides(b));
   }
 };
 
@@ -118,11 +153,10 @@ TEST(CrackOpeningParts, NodeDamageIsTheMassWeightedMeanOverEveryColour) {
                                 {V(7, 5), right_damage_mass, 1, 1}};
   };
   const V probe(5, 5), far(5, 1.5);
-  Cracks cracks(kGrid.nodeCount(), kColours, 2, 0);
+  Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
   findSides(cracks, spots(3, 1), {{probe, 2}, {far, 0}});
-  EXPECT_TRUE(cracks.nearDamage(0));
-  // far's stencil, rows 1..3, reaches none of the damaged rows 4..6.
-  EXPECT_FALSE(cracks.nearDamage(1));
+  // far's stencil, rows 1..2, reaches none of the damaged rows 4..6: no gradient, no reference.
+  for (const int k : stencil(far)) EXPECT_EQ(sideOfMinusX(cracks, k), sideOfPlusX(cracks, k)) << k;
   for (const int k : stencil(probe)) {
     EXPECT_EQ(sideOfMinusX(cracks, k), 0) << k;
     EXPECT_EQ(sideOfPlusX(cracks, k), 1) << k;
@@ -142,8 +176,6 @@ TEST(CrackOpeningParts, EachNodesReferenceIsTheLargestGradientThatReachesIt) {
   for (const auto& [colour_a, colour_b] : {std::pair(0, 0), std::pair(0, 2), std::pair(2, 0)}) {
     const TwoSides s(0.1, colour_a, colour_b);
     SCOPED_TRACE(testing::Message() << "colours " << colour_a << " " << colour_b);
-    EXPECT_TRUE(s.cracks.nearDamage(TwoSides::a));
-    EXPECT_TRUE(s.cracks.nearDamage(TwoSides::b));
     for (int j = 4; j <= 6; ++j) {
       // Columns 3 to 5: a's +x (column 5 is b's too, whose gradient is smaller).
       for (int i = 3; i <= 5; ++i) {
@@ -168,16 +200,24 @@ TEST(CrackOpeningParts, EachNodesReferenceIsTheLargestGradientThatReachesIt) {
 // TwoSides' a and b about a spot of damage 1/2 (no grains): a takes side 0 at every node and keeps
 // the plain transfers, b takes side 1 at column 5; snow far from damage keeps them unless it
 // failed. Damage 1 (failed snow, grains) takes a off them too: it gives the grains its normals.
+// A side is the step's: the next step's particle of that place takes its own.
 TEST(CrackOpeningParts, OnlySnowTakingSide1OrNearGrainsLeavesThePlainTransfers) {
   const V xa(3.75, 5), xb(6, 5), far(5, 1.5);
   for (const Real damage : {0.5, 1.0}) {
-    Cracks cracks(kGrid.nodeCount(), kColours, 3, 0);
+    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
     findSides(cracks, {{V(5, 5), 1, damage, 0}}, {{xa, 2}, {xb, 0}, {far, 1}});
-    EXPECT_EQ(cracks.decideSides<Kernel>(kGrid, xa, 0, false), damage == 1) << damage;
-    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xb, 1, false)) << damage;
-    EXPECT_FALSE(cracks.decideSides<Kernel>(kGrid, far, 2, false)) << damage;
-    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, far, 2, true)) << "failed snow";
-    EXPECT_TRUE(cracks.takesSides(2));
+    std::vector<Real> mass0 = zeroMass();
+    std::vector<V> momentum0 = zeroMomentum();
+    const Particle snow[] = {{xa, 2}, {xb, 0}, {far, 1}, {far, 1}};
+    for (int p = 0; p < 4; ++p)
+      scatter(cracks, snow[p].x, p, p == 3 ? 1 : 0, 1, V::Zero(), snow[p].colour, mass0, momentum0);
+    EXPECT_EQ(cracks.takesSides(0), damage == 1) << damage;
+    EXPECT_TRUE(cracks.takesSides(1)) << damage;
+    EXPECT_FALSE(cracks.takesSides(2)) << damage;
+    EXPECT_TRUE(cracks.takesSides(3)) << "failed snow";
+    // A side taken in an earlier step reads as none.
+    cracks.beginStep(true);
+    EXPECT_FALSE(cracks.takesSides(1));
   }
 }
 
@@ -250,7 +290,7 @@ TEST(CrackOpeningParts, SeparatingSidesKeepTheirVelocitiesAndEachGathersItsOwn) 
     if (k != s.k) s.cracks.updateNode(k, s.mass0[k], v0[k], dt, gravity, [](V&) {});
   // b gathers side 1's velocity at column 5 (weight 1/8) and side 0's elsewhere (7/8).
   M B;
-  const V v = s.cracks.gather<Kernel>(kGrid, s.xb, TwoSides::b, false, v0.data(), B);
+  const V v = gather(s.cracks, s.xb, TwoSides::b, v0, B);
   const V expected = 0.125 * (vb + dt * gravity) + 0.875 * V(-1, 0);
   EXPECT_NEAR((v - expected).norm(), 0, 1e-12);
 }
@@ -260,16 +300,15 @@ TEST(CrackOpeningParts, GrainsMeetASideOnlyMovingIntoItAlongItsOutwardNormal) {
   // both reach node (5, 5), the intact snow's side 0 there with outward normal +x (from the snow
   // to the node).
   for (const Real grain_speed : {-1.0, 1.0}) {
-    Cracks cracks(kGrid.nodeCount(), kColours, 2, 0);
+    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
     const V xs(4, 5), xg(6, 5), vg(grain_speed, 0);
-    findSides(cracks, {{xg, 1, 1, 1}}, {{xs, 0}, {xg, 1}});
-    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xs, 0, false)) << "snow near grains";
-    EXPECT_TRUE(cracks.decideSides<Kernel>(kGrid, xg, 1, true));
-    std::vector<Real> mass0(kGrid.nodeCount(), 0);
-    std::vector<V> momentum0(kGrid.nodeCount(), V::Zero());
-    cracks.scatter<Kernel>(kGrid, xs, 0, false, 1, V::Zero(), M::Zero(), mass0.data(),
-                           momentum0.data(), 0);
-    cracks.scatter<Kernel>(kGrid, xg, 1, true, 1, vg, M::Zero(), mass0.data(), momentum0.data(), 1);
+    findSides(cracks, {{xg, 1, 1, 1}}, {{xs, 0}});
+    std::vector<Real> mass0 = zeroMass();
+    std::vector<V> momentum0 = zeroMomentum();
+    scatter(cracks, xs, 0, 0, 1, V::Zero(), 0, mass0, momentum0);
+    scatter(cracks, xg, 1, 1, 1, vg, 1, mass0, momentum0);
+    EXPECT_TRUE(cracks.takesSides(0)) << "snow near grains";
+    EXPECT_TRUE(cracks.takesSides(1));
     const int k = node(5, 5);
     V v0 = V::Zero();
     Seen seen;
@@ -300,4 +339,50 @@ TEST(CrackOpeningParts, CollisionsComeLastOnEveryFieldWithMass) {
   });
   EXPECT_EQ(fields, 2);
   EXPECT_NEAR((v0 - V(0, 0.45)).norm(), 0, 1e-12);
+}
+
+// The first step with damage makes its own field and references from the snow as it is: on snow
+// that stays put, those of two lagged steps.
+TEST(CrackOpeningParts, APrimedStepFindsTheReferencesOfTwoLaggedSteps) {
+  const TwoSides lagged;
+  Cracks primed(kGrid.nodeCount(), kColours, kParticles, 0.1);
+  primed.beginStep(true);
+  ASSERT_TRUE(primed.mustPrime());
+  const auto rows = [](const V& x, auto&& f) {
+    const Stencil<2, Kernel, Real> s(x, 1 / kGrid.h);
+    f(TensorStencil<2, Kernel, Real>(kGrid, s, x));
+  };
+  rows(V(5, 5), [&](const auto& t) { primed.primeDamage(t, 1, 1, 0); });
+  for (const V& x : {lagged.xa, lagged.xb})
+    rows(x, [&](const auto& t) { primed.primeDamage(t, 0, 0, 1); });
+  for (int k = 0; k < kGrid.nodeCount(); ++k) primed.sumPrimedDamage(k);
+  for (const V& x : {lagged.xa, lagged.xb})
+    rows(x, [&](const auto& t) { primed.primeReference(t, kInertiaInverse, 2); });
+  for (int k = 0; k < kGrid.nodeCount(); ++k) primed.sumPrimedReference(k);
+  for (int k = 0; k < kGrid.nodeCount(); ++k) {
+    EXPECT_EQ(sideOfPlusX(primed, k), sideOfPlusX(lagged.cracks, k)) << k;
+    EXPECT_EQ(sideOfMinusX(primed, k), sideOfMinusX(lagged.cracks, k)) << k;
+  }
+}
+
+// A crack step without damage (the solver's last before plain steps) leaves no damage and no
+// reference at any node, so plain steps in between leave nothing stale for the next crack step.
+TEST(CrackOpeningParts, AStepWithoutDamageClearsEveryNode) {
+  TwoSides s;
+  s.cracks.beginStep(false);
+  EXPECT_FALSE(s.cracks.mustPrime());
+  std::vector<Real> mass0 = zeroMass();
+  std::vector<V> momentum0 = zeroMomentum();
+  scatter(s.cracks, s.xb, TwoSides::b, 0, 2, V::Zero(), 0, mass0, momentum0);
+  for (int k = 0; k < kGrid.nodeCount(); ++k) {
+    V v = V::Zero();
+    s.cracks.updateNode(k, mass0[k], v, 0, V::Zero(), [](V&) {});
+  }
+  EXPECT_FALSE(s.cracks.holdsDamage());
+  for (int k = 0; k < kGrid.nodeCount(); ++k)
+    EXPECT_EQ(sideOfPlusX(s.cracks, k), sideOfMinusX(s.cracks, k)) << k;
+  s.cracks.beginStep(true);
+  EXPECT_TRUE(s.cracks.mustPrime());
+  scatter(s.cracks, s.xb, TwoSides::b, 0, 2, V::Zero(), 0, mass0, momentum0);
+  EXPECT_FALSE(s.cracks.takesSides(TwoSides::b));
 }

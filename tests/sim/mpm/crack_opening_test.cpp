@@ -215,8 +215,9 @@ TEST(CrackOpening, RestingSnowSleepsWhileTheBrokenBarSlides) {
   EXPECT_EQ(box_asleep, box);
   EXPECT_EQ(bar_asleep, 0);
   EXPECT_EQ(asleep.statistics().auto_sleep.asleep_now, box);
-  // The bar as without sleep, bit for bit: the box sleeps far from damage, and the crack's passes
-  // still take it, so every node's damage, reference and sides are the awake run's.
+  // The bar as without sleep, bit for bit: the box sleeps far from damage, whose field and
+  // references its stencils do not reach, so every node's damage, reference and sides are the
+  // awake run's.
   EXPECT_TRUE(asleep.particles().positionsById() == awake.particles().positionsById());
   const auto [below, above] = asleep_bar.halvesSpeeds(asleep);
   EXPECT_NEAR(below, -ShearedBar::speed, 0.01);

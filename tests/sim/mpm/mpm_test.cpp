@@ -752,7 +752,7 @@ void expectCracksOpenBitIdenticallyOnAnyThreadCount(Json j) {
   run(s, 0.002);
   const auto& stages = s.stageSeconds();
   EXPECT_TRUE(std::any_of(stages.begin(), stages.end(), [](const StageSeconds& st) {
-    return st.stage == "crack: damage";
+    return st.stage == "crack: scatter";
   })) << "the cracks' passes must run";
   expectBitIdenticalOnAnyThreadCount<D, T>(j, D == 2 ? "2D, cracks open" : "3D, cracks open");
 }

@@ -89,8 +89,8 @@ class CrackOpening {
   }
   template <class Rows>
   void primeReference(const Rows& t, T inertia_inverse, int c) {
-    if (!(t.largest(node_.damage.data()) > 0)) return;
-    const V gradient = inertia_inverse * t.gatherScalarMoment(node_.damage.data());
+    if (!nearDamage(t)) return;
+    const V gradient = damageGradient(t, inertia_inverse);
     const T norm = gradient.norm();
     if (!(norm > 0)) return;
     Partial& g = partial_[c];
@@ -102,7 +102,7 @@ class CrackOpening {
   // scatterParticle), node i taking w m and w (m v + A (x_i - x_p)), into the field of each node
   // the particle takes. The sides come from the last step's damage field d_i, the damage field
   // lagging a step behind the snow: near damage (a node of the stencil with d_i > 0) the
-  // particle's damage gradient, MLS's grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), decides them:
+  // particle's damage gradient (damageGradient) decides them:
   // side 0 of node i when it points the way of the node's reference direction r_i, else side 1;
   // and the gradient goes into the next step's r_i, the largest among the particles that reach
   // the node. Failed snow (damage 1) takes the grains everywhere; intact snow near grains also
@@ -116,8 +116,8 @@ class CrackOpening {
     std::uint64_t bits = 0;
     bool grains_near = false;
     char touched = damage > 0 ? touched_damage : 0;
-    if (t.largest(node_.damage.data()) > 0) {
-      const V gradient = inertia_inverse * t.gatherScalarMoment(node_.damage.data());
+    if (nearDamage(t)) {
+      const V gradient = damageGradient(t, inertia_inverse);
       grains_near = t.largest(node_.grains.data()) > 0;
       const T norm = gradient.norm();
       const bool refers = holds_damage_ && norm > 0;
@@ -152,6 +152,16 @@ class CrackOpening {
     });
   }
 
+  // Whether a node of the stencil t holds damage, and MLS's damage gradient there,
+  // grad d_p = D_p^-1 sum_i w_ip d_i (x_i - x_p), in the last step's damage field.
+  template <class Rows>
+  bool nearDamage(const Rows& t) const {
+    return t.largest(node_.damage.data()) > 0;
+  }
+  template <class Rows>
+  V damageGradient(const Rows& t, T inertia_inverse) const {
+    return inertia_inverse * t.gatherScalarMoment(node_.damage.data());
+  }
   // Which field of node k snow of damage gradient `gradient` takes: the grains once it failed,
   // else the side the gradient lies on (side 0 where the node has no reference).
   int side(const V& gradient, bool failed, int k) const {
@@ -440,17 +450,10 @@ class OpenCracks {
   void prime(Schedule& schedule) {
     if (!cracks_.mustPrime()) return;
     using PartialGrid = typename Schedule::PartialGrid;
-    const auto withRows = [&](int p, auto&& f) {
-      runFor(isa_, [&] {
-        const V& x = particles_.x[p];
-        const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
-        f(TensorStencil<D, Kernel, T>(grid_, s, x));
-      });
-    };
     schedule.scatter(
         [&](int p, PartialGrid& g) {
           withRows(p, [&](const auto& t) {
-            cracks_.primeDamage(t, particles_.mass[p], 1 - strength(p), g.colour);
+            cracks_.primeDamage(t, particles_.mass[p], damage(p), g.colour);
           });
         },
         "crack: prime damage");
@@ -469,12 +472,9 @@ class OpenCracks {
   // 1 + 3: into each node's side.
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T dt, Plain&&) const {
-    runFor(isa_, [&] {
-      const V& x = particles_.x[p];
-      const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
+    withRows(p, [&](const auto& t) {
       const T m = particles_.mass[p];
-      cracks_.scatter(TensorStencil<D, Kernel, T>(grid_, s, x), p, 1 - strength(p),
-                      inertia_inverse_, m, V(m * particles_.v[p]),
+      cracks_.scatter(t, p, damage(p), inertia_inverse_, m, V(m * particles_.v[p]),
                       mlsAffineMomentum(particles_, p, dt, inertia_inverse_), g.mass.data(),
                       g.momentum.data(), g.colour);
     });
@@ -489,12 +489,9 @@ class OpenCracks {
   template <class Plain>
   void gather(int p, Plain&& plain) {
     if (!cracks_.takesSides(p)) return plain(p);
-    runFor(isa_, [&] {
-      const V& x = particles_.x[p];
-      const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
+    withRows(p, [&](const auto& t) {
       M B;
-      particles_.v[p] =
-          cracks_.gather(TensorStencil<D, Kernel, T>(grid_, s, x), p, fields_.velocity.data(), B);
+      particles_.v[p] = cracks_.gather(t, p, fields_.velocity.data(), B);
       particles_.C[p] = inertia_inverse_ * B;
     });
   }
@@ -508,7 +505,17 @@ class OpenCracks {
   }
 
  private:
-  T strength(int p) const { return strengthLeft<T>(material_, particles_.J_P[p]); }
+  // Damage d = 1 - strength left (SnowMaterial::fracture_strain) of particle p.
+  T damage(int p) const { return 1 - strengthLeft<T>(material_, particles_.J_P[p]); }
+  // f(rows of particle p's stencil), in the build for isa_.
+  template <class F>
+  void withRows(int p, F&& f) const {
+    runFor(isa_, [&] {
+      const V& x = particles_.x[p];
+      const Stencil<D, Kernel, T> s(x, T(1 / grid_.h));
+      f(TensorStencil<D, Kernel, T>(grid_, s, x));
+    });
+  }
 
   CrackOpening<D, T>& cracks_;
   MpmParticles<D, T>& particles_;

@@ -120,13 +120,17 @@ double mpmParticleBytes(const Scene& scene, long n, GridArrays& grid, double& se
     grid.addZeroPages(colours * (mpm.transfer == MpmTransfer::Mls ? 1 : 2), sizeof(V));
   }
   if (mpm.open_cracks) {
-    // The step's stamp and what it takes; a side bit per stencil node.
+    // The step's stamp and what it takes; a side bit per stencil node; with auto-sleep, what it
+    // read of the damage field, kept while it sleeps (a gradient, side bits, flags).
     per_particle += sizeof(std::uint32_t) + sizeof(std::uint64_t);
+    if (sleep) per_particle += sizeof(V) + sizeof(std::uint64_t) + sizeof(char);
     // Per colour: damage, reference norm, two masses; reference, two normals, two momenta;
-    // touched. Per node: damage, grains; reference and two velocities.
-    grid.addZeroPages(4 * colours + 2, sizeof(T));
-    grid.addZeroPages(5 * colours + 3, sizeof(V));
-    grid.addZeroPages(colours, sizeof(char));
+    // touched; twice with auto-sleep (its still blocks' scratch). Per node: damage, grains;
+    // reference and two velocities.
+    const int partials = sleep ? 2 * colours : colours;
+    grid.addZeroPages(4 * partials + 2, sizeof(T));
+    grid.addZeroPages(5 * partials + 3, sizeof(V));
+    grid.addZeroPages(partials, sizeof(char));
   }
   if (mpm.integrator == MpmIntegrator::SemiImplicit) {  // in double (ImplicitVelocitySolve)
     const int stencil = std::pow(mpm.kernel == KernelType::Cubic ? 4 : 3, D);

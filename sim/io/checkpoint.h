@@ -22,7 +22,7 @@
 namespace snowsim {
 
 // The layout of the file; a checkpoint of another format version is refused.
-inline constexpr std::uint32_t kCheckpointFormat = 5;
+inline constexpr std::uint32_t kCheckpointFormat = 6;
 
 // CRC-32 (the IEEE polynomial, as zlib and PNG compute it) of bytes.
 std::uint32_t crc32(std::string_view bytes, std::uint32_t crc = 0);

@@ -54,14 +54,14 @@ class SleepStep {
   }
 
   // 1 + 3 with resting snow: its momentum is dt times its stress's share, which unit(p, g)
-  // scatters at dt = 1, so a block of still particles keeps what it scattered; but a block with a
-  // particle that scattersFresh(p) (damaged, where it may take a node's other side) scatters
-  // afresh. stage: the scatter's name among the step's stages.
-  template <class Schedule, class Scatter, class Unit, class ScattersFresh>
+  // scatters at dt = 1, so a block of still particles keeps what it scattered, and with it what
+  // it scattered into the fields of the step's own, `own` (ParticleGridSchedule::scatter). stage:
+  // the scatter's name among the step's stages.
+  template <class Schedule, class Scatter, class Unit, class Own>
   void scatter(Schedule& schedule, std::string_view stage, Scatter&& scatter, Unit&& unit,
-               ScattersFresh&& scattersFresh, T dt) const {
+               Own&& own, T dt) const {
     schedule.scatter(
-        scatter, [&](int p) { return scattersFresh(p) ? 0 : stillness(p); }, unit, dt, stage);
+        scatter, [&](int p) { return stillness(p); }, unit, own, dt, stage);
   }
 
   // Whether particle p, at x, sleeps through this step, waking it if a collider or its stencil,
@@ -165,9 +165,9 @@ class AutoSleeper {
 template <int D, class T>
 struct NoSleep {
   using V = Vec<D, T>;
-  template <class Schedule, class Scatter, class Unit, class ScattersFresh>
-  void scatter(Schedule& schedule, std::string_view stage, Scatter&& scatter, Unit&&,
-               ScattersFresh&&, T) const {
+  template <class Schedule, class Scatter, class Unit, class Own>
+  void scatter(Schedule& schedule, std::string_view stage, Scatter&& scatter, Unit&&, Own&&,
+               T) const {
     schedule.scatter(scatter, stage);
   }
   template <class Kernel>

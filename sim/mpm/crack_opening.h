@@ -30,6 +30,7 @@
 #include "sim/mpm/auto_sleep.h"
 #include "sim/mpm/mpm_particles.h"
 #include "sim/mpm/snow_material.h"
+#include "sim/parallel/still_blocks.h"
 #include "sim/parallel/zero_page_allocator.h"
 
 namespace snowsim {
@@ -41,11 +42,18 @@ class CrackOpening {
   using M = Mat<D, T>;
   static constexpr int grains = 2;  // the field of failed snow; sides 0 and 1 are intact
 
+  // colours: the scatter's; blocks: those of its still blocks (ParticleGridSchedule::blockCount);
   // friction: the Coulomb coefficient between the faces of a crack, and between grains and the
   // intact snow.
-  CrackOpening(int nodes, int colours, int particles, T friction)
-      : partial_(colours), sides_(particles), side_bits_(particles), friction_(friction) {
+  CrackOpening(int nodes, int colours, int particles, int blocks, T friction)
+      : partial_(colours),
+        scratch_(colours),
+        sides_(particles),
+        side_bits_(particles),
+        kept_(blocks),
+        friction_(friction) {
     for (Partial& p : partial_) p.resize(nodes);
+    for (Partial& p : scratch_) p.resize(nodes);
     node_.resize(nodes);
   }
 
@@ -67,7 +75,7 @@ class CrackOpening {
   bool mustPrime() const { return must_prime_; }
   template <class Rows>
   void primeDamage(const Rows& t, T m, T damage, int c) {
-    Partial& g = partial_[c];  // the mass and the grains' mass in the arrays of sides 1 and 2
+    Partial& g = partial(c);  // the mass and the grains' mass in the arrays of sides 1 and 2
     if (damage >= 1)
       t.scatterScalars({m, m, m}, {g.mass[0].data(), g.damage.data(), g.mass[1].data()});
     else if (damage > 0)
@@ -93,47 +101,60 @@ class CrackOpening {
     const V gradient = damageGradient(t, inertia_inverse);
     const T norm = gradient.norm();
     if (!(norm > 0)) return;
-    Partial& g = partial_[c];
+    Partial& g = partial(c);
     t.forEachNode([&](int k, T w, const V&) { refer(g, k, w, gradient, norm); });
   }
   void sumPrimedReference(int k) { node_.reference[k] = largestReference(k); }
 
-  // Particle p's scatter, rows t of its stencil, in colour c: MLS's scatter (the solver's
-  // scatterParticle), node i taking w m and w (m v + A (x_i - x_p)), into the field of each node
-  // the particle takes. The sides come from the last step's damage field d_i, the damage field
-  // lagging a step behind the snow: near damage (a node of the stencil with d_i > 0) the
-  // particle's damage gradient (damageGradient) decides them:
-  // side 0 of node i when it points the way of the node's reference direction r_i, else side 1;
-  // and the gradient goes into the next step's r_i, the largest among the particles that reach
-  // the node. Failed snow (damage 1) takes the grains everywhere; intact snow near grains also
-  // adds w m (x_i - x_p) to its side's outward normal. The damage m d goes into the next field.
+  // What a particle's scatter reads of the last step's damage field d_i, the damage field
+  // lagging a step behind the snow: near damage (a node of the stencil with d_i > 0) its damage
+  // gradient (damageGradient), and the sides it takes, side 0 of node i when the gradient points
+  // the way of the node's reference direction r_i, else side 1; whether grains are near; and so
+  // what it takes (takes_*, in the low bits of flags). A sleeping particle keeps its last.
+  struct Reading {
+    V gradient = V::Zero();
+    std::uint64_t side_bits = 0;
+    char flags = 0;  // takes_* | near_grains
+  };
   template <class Rows>
-  void scatter(const Rows& t, int p, T damage, T inertia_inverse, T m, const V& mv, const M& A,
-               T* mass0, V* momentum0, int c) {
+  Reading read(const Rows& t, T damage, T inertia_inverse) const {
     static_assert(Rows::rows * Rows::row_nodes <= 64, "one bit a node");
-    Partial& g = partial_[c];
+    Reading r;
     const bool failed = damage >= 1;
-    std::uint64_t bits = 0;
-    bool grains_near = false;
-    char touched = damage > 0 ? touched_damage : 0;
     if (nearDamage(t)) {
-      const V gradient = damageGradient(t, inertia_inverse);
-      grains_near = t.largest(node_.grains.data()) > 0;
-      const T norm = gradient.norm();
-      const bool refers = holds_damage_ && norm > 0;
-      if (refers) touched |= touched_reference;
+      r.gradient = damageGradient(t, inertia_inverse);
+      if (t.largest(node_.grains.data()) > 0) r.flags = near_grains;
       int n = 0;
-      t.forEachNode([&](int k, T w, const V&) {
-        if (!failed) bits |= std::uint64_t(side(gradient, false, k)) << n;
-        ++n;
-        if (refers) refer(g, k, w, gradient, norm);
-      });
+      if (!failed)
+        t.forEachNode([&](int k, T, const V&) {
+          r.side_bits |= std::uint64_t(side(r.gradient, false, k)) << n++;
+        });
+    }
+    r.flags |= failed ? takes_grains : (r.flags & near_grains) || r.side_bits ? takes_own_sides : 0;
+    return r;
+  }
+
+  // Particle p's scatter, rows t of its stencil, in colour c, with what it read (read()): MLS's
+  // scatter (the solver's scatterParticle), node i taking w m and w (m v + A (x_i - x_p)), into
+  // the field of each node the particle takes; and its damage gradient goes into the next step's
+  // r_i, the largest among the particles that reach the node. Failed snow (damage 1) takes the
+  // grains everywhere; intact snow near grains also adds w m (x_i - x_p) to its side's outward
+  // normal. The damage m d goes into the next field.
+  template <class Rows>
+  void scatter(const Rows& t, int p, const Reading& r, T damage, T m, const V& mv, const M& A,
+               T* mass0, V* momentum0, int c) {
+    Partial& g = partial(c);
+    const bool failed = damage >= 1;
+    const std::uint64_t bits = r.side_bits;
+    char touched = damage > 0 ? touched_damage : 0;
+    const T norm = r.gradient.norm();
+    if (holds_damage_ && norm > 0) {
+      touched |= touched_reference;
+      t.forEachNode([&](int k, T w, const V&) { refer(g, k, w, r.gradient, norm); });
     }
     if (damage > 0) t.scatterScalars({m * damage}, {g.damage.data()});
-    const char takes = failed ? takes_grains : grains_near || bits != 0 ? takes_own_sides : 0;
-    sides_[p] = stamp() | takes;
-    side_bits_[p] = bits;
-    if (!takes) {
+    takeSides(p, r);
+    if (!takesSides(p)) {
       t.scatterAffine(m, mv, A, mass0, momentum0);
       if (touched) t.forEachNode([&](int k, T, const V&) { g.touched[k] |= touched; });
       return;
@@ -142,7 +163,7 @@ class CrackOpening {
     V* const momentum[3] = {momentum0, g.momentum[0].data(), g.momentum[1].data()};
     const auto field = [&](int n) { return failed ? grains : int(bits >> n & 1); };
     t.scatterAffineSplit(m, mv, A, mass, momentum, field);
-    const bool normals = !failed && grains_near;
+    const bool normals = !failed && (r.flags & near_grains);
     touched |= normals ? touched_sides | touched_normals : touched_sides;
     int n = 0;
     t.forEachNode([&](int k, T w, const V& dx) {
@@ -169,6 +190,11 @@ class CrackOpening {
   }
   // Whether particle p scattered to the crack's fields this step (and gathers from them).
   bool takesSides(int p) const { return takes(p) != 0; }
+  // Particle p takes this step the fields of reading r (a kept scatter's, which it skips).
+  void takeSides(int p, const Reading& r) {
+    sides_[p] = stamp() | (r.flags & takes_mask);
+    side_bits_[p] = r.side_bits;
+  }
   // The velocities particle p meets at its stencil's nodes: those of the fields it scattered to
   // this step (the grains' if it had failed then), else side 0's, v0.
   StencilVelocities<D, T> velocitiesOf(int p, const V* v0) const {
@@ -256,6 +282,13 @@ class CrackOpening {
     node_.reference[k] = next_reference;
   }
 
+  // A still block's part of the scatter (ParticleGridSchedule::scatter with stillness): what its
+  // still particles scattered into the scratch of `colour` (colours + its colour), taken out and
+  // kept; and added, its momenta times `scale`, into the partial fields of `colour`.
+  template <class Region>
+  void keepBlock(int block, int colour, Region&& region);
+  void addKeptBlock(int block, int colour, T scale);
+
   // What the next step reads of the nodes (the damage field, the grains' mass, the references),
   // for a checkpoint: the nodes where any is not zero, and back.
   template <class Writer>
@@ -314,6 +347,8 @@ class CrackOpening {
   }
   // What a particle scattered to this step: its sides or, failed, the grains.
   static constexpr char takes_own_sides = 1, takes_grains = 2;
+  static constexpr char takes_mask = 3;
+  static constexpr char near_grains = 4;  // Reading::flags: grains at a node of the stencil
   // Bits of Partial::touched, what particles scattered to the node: a particle with sides; one
   // near grains, its normal too; damaged snow, its damage; snow near damage, its gradient.
   static constexpr char touched_sides = 1, touched_normals = 2, touched_damage = 4,
@@ -371,16 +406,75 @@ class CrackOpening {
     }
     return reference;
   }
-  std::vector<Partial> partial_;
+  // What a still block kept: its nodes' values of Partial where it touched them.
+  struct KeptNode {
+    int k;
+    char touched;
+    T damage, reference_norm, mass[2];
+    V reference, normal[2], momentum[2];
+  };
+  using KeptBlock = std::vector<KeptNode>;
+  // The partial fields of colour c, or for c = colours + c' the still blocks' scratch of c'.
+  Partial& partial(int c) {
+    const int colours = int(partial_.size());
+    return c < colours ? partial_[c] : scratch_[c - colours];
+  }
+  std::vector<Partial> partial_, scratch_;
   Nodes node_;
   // Per particle, this step's: stamp() | takes_*, and bit n: side 1 at node n of the stencil (row
   // by row).
   std::vector<std::uint32_t> sides_;
   std::vector<std::uint64_t> side_bits_;
+  std::vector<KeptBlock> kept_;  // per still block
   T friction_;
   long step_ = 0;
   bool holds_damage_ = false, must_prime_ = false;
 };
+
+template <int D, class T>
+template <class Region>
+void CrackOpening<D, T>::keepBlock(int block, int colour, Region&& region) {
+  KeptBlock& b = kept_[block];
+  b.clear();
+  Partial& s = partial(colour);
+  region([&](int k) {
+    const char touched = s.touched[k];
+    if (!touched) return;
+    b.push_back({k,
+                 touched,
+                 s.damage[k],
+                 s.reference_norm[k],
+                 {s.mass[0][k], s.mass[1][k]},
+                 s.reference[k],
+                 {s.normal[0][k], s.normal[1][k]},
+                 {s.momentum[0][k], s.momentum[1][k]}});
+    s.touched[k] = 0;
+    s.damage[k] = s.reference_norm[k] = s.mass[0][k] = s.mass[1][k] = 0;
+    for (V* a :
+         {&s.reference[k], &s.normal[0][k], &s.normal[1][k], &s.momentum[0][k], &s.momentum[1][k]})
+      a->setZero();
+  });
+}
+template <int D, class T>
+void CrackOpening<D, T>::addKeptBlock(int block, int colour, T scale) {
+  Partial& g = partial_[colour];
+  for (const KeptNode& n : kept_[block]) {
+    const int k = n.k;
+    g.touched[k] |= n.touched;
+    if (n.touched & touched_sides)
+      for (int f = 0; f < 2; ++f) {
+        g.mass[f][k] += n.mass[f];
+        g.momentum[f][k] += scale * n.momentum[f];
+      }
+    if (n.touched & touched_normals)
+      for (int side = 0; side < 2; ++side) g.normal[side][k] += n.normal[side];
+    if (n.touched & touched_damage) g.damage[k] += n.damage;
+    if (n.reference_norm > g.reference_norm[k]) {
+      g.reference_norm[k] = n.reference_norm;
+      g.reference[k] = n.reference;
+    }
+  }
+}
 
 // MLS's affine momentum of particle p, which its scatter spreads with m_p v_p:
 // A_p = m_p C_p + dt D^-1 (-V_p^0 tau_p), the affine part of APIC and the force of eq. 8 in one
@@ -403,7 +497,7 @@ struct OneVelocityPerNode {
   static constexpr std::string_view scatter_stage = "scatter";
   template <class Schedule>
   void prime(Schedule&) {}
-  bool scattersFresh(int) const { return false; }
+  NoOwnFields stillFields() const { return {}; }
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
     plain(p, g);
@@ -431,15 +525,19 @@ class OpenCracks {
   // The stage's name tells the cost estimate (app/cost_estimate.cpp) that the crack step ran.
   static constexpr std::string_view scatter_stage = "crack: scatter";
 
+  // sleep_steps: auto-sleep's steps (AutoSleep::steps), with the particles' crack_* arrays to
+  // keep their readings in, else -1.
   OpenCracks(CrackOpening<D, T>& cracks, MpmParticles<D, T>& particles,
              const SnowMaterial& material, const GridGeometry<D>& grid,
-             const GridFields<D, T>& fields, T inertia_inverse, bool damaged)
+             const GridFields<D, T>& fields, T inertia_inverse, bool damaged, int sleep_steps)
       : cracks_(cracks),
         particles_(particles),
         material_(material),
         grid_(grid),
         fields_(fields),
         inertia_inverse_(inertia_inverse),
+        sleep_steps_(sleep_steps),
+        keeps_readings_(sleep_steps >= 0),
         isa_(vectorIsa()) {
     cracks_.beginStep(damaged);
   }
@@ -469,12 +567,21 @@ class OpenCracks {
                                [&](int k) { cracks_.sumPrimedReference(k); });
   }
 
-  // 1 + 3: into each node's side.
+  // 1 + 3: into each node's side, with what the particle reads of the damage field, or, asleep
+  // since its last scatter, what it read then.
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T dt, Plain&&) const {
     withRows(p, [&](const auto& t) {
+      const T d = damage(p);
+      Reading r;
+      if (sleptSinceLastScatter(p)) {
+        r = kept(p);
+      } else {
+        r = cracks_.read(t, d, inertia_inverse_);
+        if (keeps_readings_) keep(p, r);
+      }
       const T m = particles_.mass[p];
-      cracks_.scatter(t, p, damage(p), inertia_inverse_, m, V(m * particles_.v[p]),
+      cracks_.scatter(t, p, r, d, m, V(m * particles_.v[p]),
                       mlsAffineMomentum(particles_, p, dt, inertia_inverse_), g.mass.data(),
                       g.momentum.data(), g.colour);
     });
@@ -495,10 +602,27 @@ class OpenCracks {
       particles_.C[p] = inertia_inverse_ * B;
     });
   }
-  // Whether particle p, asleep or not, must scatter afresh: damaged, it may take sides, which a
-  // still block's kept scatter does not. (Asleep, its damage does not change: J_P stays.) Snow
-  // with no damage of its own that sleeps in a kept block takes side 0 until it wakes.
-  bool scattersFresh(int p) const { return particles_.J_P[p] > 1; }
+  // What still blocks keep of the crack's fields with their scatter (ParticleGridSchedule::scatter
+  // with stillness). Asleep, a particle's damage does not change (J_P stays), nor what it read.
+  class StillFields {
+   public:
+    explicit StillFields(const OpenCracks& opening) : o_(opening) {}
+    template <class ForStill, class Region>
+    void keep(int block, int colour, ForStill&&, Region&& region) const {
+      o_.cracks_.keepBlock(block, colour, region);
+    }
+    template <class ForStill>
+    void reuse(int, ForStill&& forStill) const {
+      forStill([&](int p) { o_.cracks_.takeSides(p, o_.kept(p)); });
+    }
+    void add(int block, int colour, T scale) const {
+      o_.cracks_.addKeptBlock(block, colour, scale);
+    }
+
+   private:
+    const OpenCracks& o_;
+  };
+  StillFields stillFields() const { return StillFields(*this); }
   // The velocities particle p meets at its stencil's nodes: its fields'.
   StencilVelocities<D, T> velocitiesOf(int p) const {
     return cracks_.velocitiesOf(p, fields_.velocity.data());
@@ -517,12 +641,29 @@ class OpenCracks {
     });
   }
 
+  using Reading = typename CrackOpening<D, T>::Reading;
+  // Asleep through the last particle pass (SleepStep::stillness 2): nothing of it changed since
+  // its last scatter, and it keeps what it read then. (The first step with damage reads afresh.)
+  bool sleptSinceLastScatter(int p) const {
+    return keeps_readings_ && particles_.calm_steps[p] > sleep_steps_ && !cracks_.mustPrime();
+  }
+  Reading kept(int p) const {
+    return {particles_.crack_gradient[p], particles_.crack_side_bits[p], particles_.crack_flags[p]};
+  }
+  void keep(int p, const Reading& r) const {
+    particles_.crack_gradient[p] = r.gradient;
+    particles_.crack_side_bits[p] = r.side_bits;
+    particles_.crack_flags[p] = r.flags;
+  }
+
   CrackOpening<D, T>& cracks_;
   MpmParticles<D, T>& particles_;
   const SnowMaterial& material_;
   const GridGeometry<D>& grid_;
   const GridFields<D, T>& fields_;  // side 0 of every node, the solver's grid
   T inertia_inverse_;
+  int sleep_steps_;
+  bool keeps_readings_;
   VectorIsa isa_;  // the build the per-particle passes run in (runFor)
 };
 

@@ -3,6 +3,7 @@
 // the particles reorders every array.
 #pragma once
 
+#include <cstdint>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -39,6 +40,12 @@ struct MpmParticles : Particles<D, T> {
   // Auto-sleep (mpm.auto_sleep): the steps in a row the particle and its stencil's nodes have
   // moved slower than the sleep speed; asleep once it reaches the sleep steps. Empty when off.
   std::vector<int> calm_steps;
+  // Open cracks with auto-sleep: what the particle's crack scatter last read of the damage field
+  // (CrackOpening::Reading: its damage gradient, the side it takes at each node, what it takes),
+  // which it keeps while it sleeps. Empty otherwise.
+  std::vector<Vec<D, T>> crack_gradient;
+  std::vector<std::uint64_t> crack_side_bits;
+  std::vector<char> crack_flags;
 
   MpmParticles() = default;
   // The snow starts unstrained: F_E = I, J_P = 1, no stress, no affine velocity.
@@ -52,11 +59,13 @@ struct MpmParticles : Particles<D, T> {
     hardening.assign(n, hardeningFactor<T>(material, 1));
   }
 
-  // Every array, empty ones included (calm_steps without auto-sleep): a reordering skips those.
+  // Every array, empty ones included (calm_steps without auto-sleep, the crack ones without cracks
+  // and sleep): a reordering skips those.
   template <class F>
   void forEachArray(F&& f) {
     Particles<D, T>::forEachArray(f);
     f(F_E), f(tau), f(J_P), f(C), f(hardening), f(calm_steps);
+    f(crack_gradient), f(crack_side_bits), f(crack_flags);
   }
 };
 

@@ -47,7 +47,8 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
                        ": mpm.open_cracks needs material.fracture_strain > 0, mpm.transfer "
                        "\"mls\" and mpm.integrator \"explicit\"");
     cracks_ = std::make_unique<CrackOpening<D, T>>(grid_.nodeCount(), Schedule::colours,
-                                                   particles_.size(), T(params_.crack_friction));
+                                                   particles_.size(), schedule_.blockCount(),
+                                                   T(params_.crack_friction));
   }
   for (int p = 0; p < particles_.size(); ++p) total_mass_ += particles_.mass[p];
   total_particles_ = particles_.size();
@@ -56,6 +57,11 @@ MpmSolver<D, T>::MpmSolver(const Scene& scene, Particles<D> particles, int threa
   colliders_move_ = collider_speed_ > 0;
   if (params_.auto_sleep.enabled) {
     particles_.calm_steps.assign(particles_.size(), 0);
+    if (cracks_) {  // what sleeping snow read of the damage field
+      particles_.crack_gradient.assign(particles_.size(), V::Zero());
+      particles_.crack_side_bits.assign(particles_.size(), 0);
+      particles_.crack_flags.assign(particles_.size(), 0);
+    }
     schedule_.keepStillBlocks();
     sleeper_ = std::make_unique<AutoSleeper>(params_.auto_sleep);
   }
@@ -123,9 +129,17 @@ void MpmSolver<D, T>::withParts(F&& f) {
           std::any_of(particles_.J_P.begin(), particles_.J_P.end(), [](T J_P) { return J_P > 1; });
       if (damaged || cracks_->holdsDamage()) {
         OpenCracks<D, T, Kernel> opening(*cracks_, particles_, material_, grid_, fields_,
-                                         inertia_inverse_, damaged);
+                                         inertia_inverse_, damaged,
+                                         sleeper_ ? params_.auto_sleep.steps : -1);
+        // What still blocks kept before a primed field, or for the step that clears the damage
+        // (it takes no references), holds for neither.
+        if (cracks_->mustPrime() || !damaged) schedule_.forgetStillBlocks();
+        cracked_last_step_ = true;
         return withSleep(opening);
       }
+      // What still blocks kept of a crack step holds only their side 0's share.
+      if (cracked_last_step_) schedule_.forgetStillBlocks();
+      cracked_last_step_ = false;
     }
   }
   OneVelocityPerNode<D, T> opening{fields_};
@@ -147,15 +161,14 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
     // Open cracks, at the first step with damage: its damage field and references.
     opening.prime(schedule_);
     // 1, 3: mass, momentum and forces to the grid (with open cracks, into each node's side);
-    // resting snow's momentum is dt times its stress's share, kept by blocks without damage.
-    sleep.scatter(
-        schedule_, opening.scatter_stage,
-        [&](int p, PartialGrid& g) {
-          opening.scatter(p, g, dt, [&](int q, PartialGrid& h) { plainScatter(q, h, dt); });
-        },
-        // A kept block holds no damage, and its snow takes side 0 alone: plain snow's scatter.
-        [&](int p, PartialGrid& g) { plainScatter(p, g, T(1)); },
-        [&](int p) { return opening.scattersFresh(p); }, dt);
+    // resting snow's momentum is dt times its stress's share, kept by still blocks.
+    const auto scatterAt = [&](T scale) {
+      return [&, scale](int p, PartialGrid& g) {
+        opening.scatter(p, g, scale, [&](int q, PartialGrid& h) { plainScatter(q, h, scale); });
+      };
+    };
+    sleep.scatter(schedule_, opening.scatter_stage, scatterAt(dt), scatterAt(T(1)),
+                  opening.stillFields(), dt);
     // 4 (+ 5 explicit): grid velocities, forces, gravity (and the grid collisions).
     ranks_.updateNodes(
         schedule_, fields_,

@@ -240,7 +240,8 @@ class MpmSolver final : public Solver<D> {
   Schedule schedule_;
   RankState<D, MpmParticles<D, T>> ranks_;
   std::unique_ptr<CrackOpening<D, T>> cracks_;  // with mpm.open_cracks
-  std::unique_ptr<AutoSleeper> sleeper_;        // with mpm.auto_sleep
+  bool cracked_last_step_ = false;
+  std::unique_ptr<AutoSleeper> sleeper_;  // with mpm.auto_sleep
   ImplicitVelocitySolve<D> implicit_;
   std::vector<Mat<D>> node_free_;  // per grid node: components the collisions left free
   KrylovResult last_solve_;

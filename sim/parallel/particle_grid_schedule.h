@@ -65,6 +65,7 @@ class ParticleGridSchedule final : public LoopRunner {
     ZeroPageVector<Position> momentum, force;  // force stays empty when the physics has none
     // Which of the colours' grids this is: fields of the physics' own kept per colour (as the
     // crack opening's sides, sim/mpm/crack_opening.h) are written race-free where this one is.
+    // The still blocks' scratch grids count on from `colours`: colours + the colour.
     int colour = 0;
   };
 
@@ -119,7 +120,7 @@ class ParticleGridSchedule final : public LoopRunner {
       still_scratch_.resize(Binning::colours);
       for (int colour = 0; colour < Binning::colours; ++colour) {
         resizePartialGrid(still_scratch_[colour]);
-        still_scratch_[colour].colour = colour;
+        still_scratch_[colour].colour = colours + colour;
       }
     }
   }
@@ -138,13 +139,21 @@ class ParticleGridSchedule final : public LoopRunner {
   // The scatter of snow of which some rests (sim/parallel/still_blocks.h). stillness(p): 0 if
   // particle p moves; 1 if it is still, its scatter depending on the step only through a momentum
   // in proportion to `scale`, which unit(p, partial grid) scatters at scale 1; 2 if, moreover,
-  // nothing of it changed since the last scatter. A block of still particles adds what it
-  // scattered at unit scale, kept from the first step all its particles were still; the others
-  // scatter with f. Without keepStillBlocks(), and in 2D, whose rows are binned only now and
+  // nothing of it changed since the last scatter. A block adds what its still particles
+  // scattered at unit scale, kept from the first step they were the same ones, and its moving
+  // ones scatter with f. Without keepStillBlocks(), and in 2D, whose rows are binned only now and
   // then, every particle scatters with f.
-  template <class F, class Stillness, class Unit>
-  void scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale,
+  // own: the fields of the physics' own that unit() writes where the scratch grid's colour says
+  // (PartialGrid::colour), kept with the block's (NoOwnFields has none):
+  // own.keep(block, colour, forStill, region) after the still particles scattered with unit(),
+  // own.reuse(block, forStill) when their kept scatter is added instead, and
+  // own.add(block, colour, scale) into the grids of `colour`. forStill(f) calls f(p) for the
+  // block's still particles in sorted order, region(f) f(k) for the nodes they may reach.
+  template <class F, class Stillness, class Unit, class Own>
+  void scatter(F&& f, Stillness&& stillness, Unit&& unit, Own&& own, Scalar scale,
                std::string_view stage = "scatter");
+  // The blocks of the scatter with stillness, as own's `block` counts them.
+  int blockCount() const { return binning_.blocks().prod(); }
   template <class F>
   void updateNodes(Fields& fields, F&& f);
   // updateNodes with between() run on the calling thread once every node is summed and before f
@@ -319,9 +328,9 @@ void ParticleGridSchedule<D, P>::scatter(F&& f, std::string_view stage) {
 }
 
 template <int D, class P>
-template <class F, class Stillness, class Unit>
-void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& unit, Scalar scale,
-                                         std::string_view stage) {
+template <class F, class Stillness, class Unit, class Own>
+void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& unit, Own&& own,
+                                         Scalar scale, std::string_view stage) {
   if (!still_) return scatter(f, stage);
   const StageClock::Scope time = timeStage(stage);
   team_.forEachPart(stage, [&](int part) {
@@ -330,26 +339,47 @@ void ParticleGridSchedule<D, P>::scatter(F&& f, Stillness&& stillness, Unit&& un
       PartialGrid& g = partial_[binning_.rowColour(row)];
       binning_.forBlocksOfRow(row, [&](int block, int begin, int end) {
         if (begin == end) return;
-        int least = 2;  // the least stillness of the block's particles
-        for (int o = begin; o < end && least > 0; ++o)
-          least = std::min(least, stillness(binning_.sorted(o)));
-        if (least == 0 || !still_->mayKeep(block, end - begin)) {
+        // The block's still particles: whether one of them fell asleep since the last scatter.
+        int still = 0;
+        bool fell_asleep = false;
+        for (int o = begin; o < end; ++o) {
+          const int s = stillness(binning_.sorted(o));
+          still += s > 0;
+          fell_asleep |= s == 1;
+        }
+        if (still == 0 || !still_->mayKeep(block, still)) {
           still_->forget(block);
           for (int o = begin; o < end; ++o) f(binning_.sorted(o), g);
           return;
         }
-        // Unchanged since the scatter it kept: the same particles, as none has moved, if there
-        // are as many. (A particle that woke and fell asleep again within one pass has
-        // stillness 1: with the sleep steps at 1 it may have moved.)
-        if (least == 1 || !still_->holds(block, end - begin)) {
+        const auto forStill = [&](auto&& each) {
+          for (int o = begin; o < end; ++o)
+            if (const int p = binning_.sorted(o); stillness(p) > 0) each(p);
+        };
+        const auto forMoving = [&](auto&& each) {
+          for (int o = begin; o < end; ++o)
+            if (const int p = binning_.sorted(o); stillness(p) == 0) each(p);
+        };
+        const auto region = [&](auto&& node) {
+          still_->forRegion(block, [&](int k, int) { node(k); });
+        };
+        // The same still particles as when it kept their scatter if there are as many and none
+        // fell asleep since: one that wakes leaves them, and stays out until it falls asleep
+        // again. (A particle that woke and fell asleep again within one pass has stillness 1:
+        // with the sleep steps at 1 it may have moved.)
+        if (fell_asleep || !still_->holds(block, still)) {
           // Rows of one colour reach no common node: they share its scratch grid.
           PartialGrid& scratch = still_scratch_[binning_.rowColour(row)];
-          for (int o = begin; o < end; ++o) unit(binning_.sorted(o), scratch);
-          still_->keep(block, end - begin, scratch);
+          forStill([&](int p) { unit(p, scratch); });
+          still_->keep(block, still, scratch);
+          own.keep(block, scratch.colour, forStill, region);
         } else {
-          kept_scatters_[part] += end - begin;
+          kept_scatters_[part] += still;
+          own.reuse(block, forStill);
         }
         still_->add(block, g, scale);
+        own.add(block, g.colour, scale);
+        forMoving([&](int p) { f(p, g); });
       });
     }
   });

@@ -15,6 +15,17 @@
 
 namespace snowsim {
 
+// The still blocks of a physics with no fields of its own beside the partial grid's
+// (ParticleGridSchedule::scatter with stillness).
+struct NoOwnFields {
+  template <class ForStill, class Region>
+  void keep(int, int, ForStill&&, Region&&) const {}
+  template <class ForStill>
+  void reuse(int, ForStill&&) const {}
+  template <class Scalar>
+  void add(int, int, Scalar) const {}
+};
+
 // Grid: a partial grid (mass, momentum, and force unless empty), of scalar Scalar.
 template <int D, class Grid, class Scalar>
 class StillBlocks {
@@ -80,7 +91,6 @@ class StillBlocks {
   void forget(int block) { kept_count_[block] = -1; }
   void forgetAll() { std::fill(kept_count_.begin(), kept_count_.end(), -1); }
 
- private:
   // f(k, local) for the nodes of block `block`'s region, those its cells c reach (c - 1 .. c + 2
   // with either kernel): flat grid index k, and the node's place in the region's storage (first
   // axis fastest). In storage coordinates (ghost nodes first) the region lies within the grid.
@@ -107,6 +117,7 @@ class StillBlocks {
     }
   }
 
+ private:
   template <class T>
   using ZeroPageVector = std::vector<T, ZeroPageAllocator<T>>;
   using Vector = Vec<D, Scalar>;  // momentum, force

@@ -24,6 +24,7 @@ using M = Mat<2>;
 const GridGeometry<2> kGrid(IVec<2>(10, 10), 1);
 constexpr Real kInertiaInverse = 4;  // MLS's D_p^-1 with the quadratic kernel: 4 / h^2
 constexpr int kColours = 3;
+constexpr int kBlocks = 1;  // still blocks: none here keeps its scatter
 
 int node(int i, int j) {
   return kGrid.index(IVec<2>(i, j));
@@ -62,8 +63,9 @@ std::vector<V> zeroMomentum() {
 void scatter(Cracks& cracks, const V& x, int p, Real damage, Real m, const V& v, int colour,
              std::vector<Real>& mass0, std::vector<V>& momentum0) {
   const Stencil<2, Kernel, Real> s(x, 1 / kGrid.h);
-  cracks.scatter(TensorStencil<2, Kernel, Real>(kGrid, s, x), p, damage, kInertiaInverse, m,
-                 V(m * v), M::Zero(), mass0.data(), momentum0.data(), colour);
+  const TensorStencil<2, Kernel, Real> t(kGrid, s, x);
+  cracks.scatter(t, p, cracks.read(t, damage, kInertiaInverse), damage, m, V(m * v), M::Zero(),
+                 mass0.data(), momentum0.data(), colour);
 }
 
 // Particle p's gather at x from side 0's velocities v0: v_p, and B.
@@ -120,7 +122,7 @@ struct TwoSides {
   std::vector<V> momentum0 = std::vector<V>(kGrid.nodeCount(), V::Zero());
 
   explicit TwoSides(Real friction = 0.1, int colour_a = 2, int colour_b = 0)
-      : cracks(kGrid.nodeCount(), kColours, kParticles, friction) {
+      : cracks(kGrid.nodeCount(), kColours, kParticles, kBlocks, friction) {
     findSides(cracks, {{V(5, 5), 1, 1, 0}}, {{xa, colour_a}, {xb, colour_b}});
   }
   // b's 2 kg at velocity v, no affine velocity, scattered into its sides.
@@ -153,7 +155,7 @@ TEST(CrackOpeningParts, NodeDamageIsTheMassWeightedMeanOverEveryColour) {
                                 {V(7, 5), right_damage_mass, 1, 1}};
   };
   const V probe(5, 5), far(5, 1.5);
-  Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
+  Cracks cracks(kGrid.nodeCount(), kColours, kParticles, kBlocks, 0);
   findSides(cracks, spots(3, 1), {{probe, 2}, {far, 0}});
   // far's stencil, rows 1..2, reaches none of the damaged rows 4..6: no gradient, no reference.
   for (const int k : stencil(far)) EXPECT_EQ(sideOfMinusX(cracks, k), sideOfPlusX(cracks, k)) << k;
@@ -204,7 +206,7 @@ TEST(CrackOpeningParts, EachNodesReferenceIsTheLargestGradientThatReachesIt) {
 TEST(CrackOpeningParts, OnlySnowTakingSide1OrNearGrainsLeavesThePlainTransfers) {
   const V xa(3.75, 5), xb(6, 5), far(5, 1.5);
   for (const Real damage : {0.5, 1.0}) {
-    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
+    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, kBlocks, 0);
     findSides(cracks, {{V(5, 5), 1, damage, 0}}, {{xa, 2}, {xb, 0}, {far, 1}});
     std::vector<Real> mass0 = zeroMass();
     std::vector<V> momentum0 = zeroMomentum();
@@ -300,7 +302,7 @@ TEST(CrackOpeningParts, GrainsMeetASideOnlyMovingIntoItAlongItsOutwardNormal) {
   // both reach node (5, 5), the intact snow's side 0 there with outward normal +x (from the snow
   // to the node).
   for (const Real grain_speed : {-1.0, 1.0}) {
-    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, 0);
+    Cracks cracks(kGrid.nodeCount(), kColours, kParticles, kBlocks, 0);
     const V xs(4, 5), xg(6, 5), vg(grain_speed, 0);
     findSides(cracks, {{xg, 1, 1, 1}}, {{xs, 0}});
     std::vector<Real> mass0 = zeroMass();
@@ -345,7 +347,7 @@ TEST(CrackOpeningParts, CollisionsComeLastOnEveryFieldWithMass) {
 // that stays put, those of two lagged steps.
 TEST(CrackOpeningParts, APrimedStepFindsTheReferencesOfTwoLaggedSteps) {
   const TwoSides lagged;
-  Cracks primed(kGrid.nodeCount(), kColours, kParticles, 0.1);
+  Cracks primed(kGrid.nodeCount(), kColours, kParticles, kBlocks, 0.1);
   primed.beginStep(true);
   ASSERT_TRUE(primed.mustPrime());
   const auto rows = [](const V& x, auto&& f) {

@@ -30,9 +30,12 @@ TEST(MpmParticles, StartUnstrained) {
   p.add(Vec<3>(0.2, 0.2, 0.3), Vec<3>(0, 1, 0), 0.01, 0);
   const SnowMaterial material;
   MpmParticles<3> mpm(p, material);
-  // Every array but the auto-sleep state, which stays empty until a solver turns auto-sleep on.
+  // Every array but the auto-sleep state and what sleeping snow keeps of an open crack, which
+  // stay empty until a solver turns them on.
   mpm.forEachArray([&](auto& array) {
-    const bool sleep_state = static_cast<const void*>(&array) == &mpm.calm_steps;
+    const void* a = &array;
+    const bool sleep_state = a == &mpm.calm_steps || a == &mpm.crack_gradient ||
+                             a == &mpm.crack_side_bits || a == &mpm.crack_flags;
     EXPECT_EQ(array.size(), sleep_state ? 0u : 2u);
   });
   EXPECT_EQ(mpm.F_E[1], Mat<3>::Identity());

@@ -32,16 +32,45 @@ class RankState {
     return true;
   }
   // The grid update (the schedule's updateNodes) with the nodes shared with the neighbour ranks
-  // summed first. force: whether the scatter wrote a force per node.
-  template <class Schedule, class Fields, class F>
-  void updateNodes(Schedule& schedule, Fields& fields, F&& update, bool force) {
+  // summed first. force: whether the scatter wrote a force per node; sumOwn(): the sum of the
+  // solver's own node fields shared with the neighbours, after the grid's (exchangeRecords).
+  template <class Schedule, class Fields, class F, class SumOwn>
+  void updateNodes(Schedule& schedule, Fields& fields, F&& update, bool force, SumOwn&& sumOwn) {
     if (!distributed()) return schedule.updateNodes(fields, update);
-    schedule.updateNodes(fields, update,
-                         [&] { slabs_.sumHalo(fields, schedule.activeNodes(), force); });
+    schedule.updateNodes(fields, update, [&] {
+      slabs_.sumHalo(fields, schedule.activeNodes(), force);
+      sumOwn();
+    });
   }
+  // Node values this rank shares with its neighbours beside the grid's (SlabDecomposition::
+  // exchangeBand), as records of plain data (sent as their bytes) whose k is the node: pack(k,
+  // record) fills node k's and returns whether to send it, unpack(record) takes each neighbour's.
+  // Nothing in one process.
+  template <class Record, class Pack, class Unpack>
+  void exchangeRecords(const NodeBox<D>& active, Pack&& pack, Unpack&& unpack) {
+    using Slabs = SlabDecomposition<D>;
+    slabs_.exchangeBand(
+        active,
+        [&](int k, std::string& bytes) {
+          Record record;
+          if (pack(k, record)) Slabs::append(bytes, record);
+        },
+        [&](const std::string& bytes, size_t& at) {
+          unpack(Slabs::template take<Record>(bytes, at));
+        });
+  }
+  // Whether node k lies in box.
+  bool contains(const NodeBox<D>& box, int k) const { return slabs_.contains(box, k); }
+  // Whether any rank's value is true, on every rank.
+  bool anyOverRanks(bool mine) { return distributed() ? sum(mine ? 1 : 0) > 0 : mine; }
   // After a step: the particles that left this rank's slab move to their new rank. Returns
   // whether this rank's particles changed.
   bool migrate(P& particles, long step) { return slabs_.migrate(particles, step); }
+  // The same with what the particles carry (SlabDecomposition::migrate).
+  template <class Carry, class Arrive>
+  bool migrate(P& particles, long step, Carry&& carry, Arrive&& arrive) {
+    return slabs_.migrate(particles, step, carry, arrive);
+  }
 
   // The whole snow's measures, alike on every rank: the largest speeds and every rank's energy.
   void combineMeasures(Real& speed, Real& signal, bool& finite, Real& energy) {

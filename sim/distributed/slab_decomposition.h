@@ -59,12 +59,16 @@ class SlabDecomposition {
   }
 
   // After the step `step` moved the particles: the slabs cut anew every rebalance_interval steps,
-  // then the particles outside this rank's slab sent to their own. Returns whether this rank's
-  // particles changed (their order too).
-  template <class P>
-  bool migrate(P& particles, long step) {
+  // then the particles outside this rank's slab sent to their own, with what carry(which, bytes)
+  // appends for them (which: their indices), which arrive(bytes) reads at their new rank, in rank
+  // order, once they are stored there. Returns whether this rank's particles changed (their order
+  // too).
+  template <class P, class Carry, class Arrive>
+  bool migrate(P& particles, long step, Carry&& carry, Arrive&& arrive) {
     if (!distributed()) return false;
     ++traffic_.steps;
+    step_axis_ = axis_;
+    step_cuts_ = cuts_;
     if (step % rebalance_interval == 0) cut(particles.x, true);
     std::vector<std::vector<int>> leaving(ranks());
     std::vector<char> stays(particles.size());
@@ -75,8 +79,12 @@ class SlabDecomposition {
     }
     std::vector<std::string> to(ranks());
     long sent = 0;
-    for (int r = 0; r < ranks(); ++r) {
-      to[r] = pack(particles, leaving[r]);
+    for (int r = 0; r < ranks(); ++r) {  // to each rank: nothing, or the particles' length,
+      if (leaving[r].empty()) continue;  // their bytes, what they carry
+      const std::string bytes = pack(particles, leaving[r]);
+      append(to[r], static_cast<std::uint64_t>(bytes.size()));
+      to[r] += bytes;
+      carry(leaving[r], to[r]);
       sent += static_cast<long>(leaving[r].size());
       traffic_.particle_bytes += static_cast<long>(to[r].size());
     }
@@ -86,8 +94,32 @@ class SlabDecomposition {
     for (const std::string& bytes : from) received = received || !bytes.empty();
     if (sent == 0 && !received) return false;
     keepOnly(particles, stays);
-    for (const std::string& bytes : from) unpack(bytes, particles);  // in rank order
+    std::vector<std::string_view> carried;
+    for (const std::string& bytes : from) {  // in rank order
+      if (bytes.empty()) continue;
+      size_t at = 0;
+      const auto length = take<std::uint64_t>(bytes, at);
+      unpack(std::string_view(bytes).substr(at, length), particles);
+      carried.push_back(std::string_view(bytes).substr(at + length));
+    }
+    for (const std::string_view bytes : carried)
+      if (!bytes.empty()) arrive(bytes);
     return true;
+  }
+  template <class P>
+  bool migrate(P& particles, long step) {
+    return migrate(
+        particles, step, [](const std::vector<int>&, std::string&) {}, [](std::string_view) {});
+  }
+  // Whether this rank's particles could reach node k (flat index) in the step before the last
+  // migrate: the nodes c-1 .. c+2 of its slab's cell layers c under that step's cuts.
+  bool reachedInLastStep(int k) const {
+    if (!distributed()) return true;
+    const int a = step_axis_;
+    const int layer = (k / grid_.stride[a]) % grid_.nodes[a] - GridGeometry<D>::ghost;
+    const int first = rank() == 0 ? 0 : step_cuts_[rank() - 1];
+    const int end = rank() + 1 < ranks() ? step_cuts_[rank()] : grid_.cells[a];
+    return layer >= first - 1 && layer <= end + 1;
   }
 
   // Between the sum of the scatter's partial grids and the node update: the partial sums of the
@@ -95,8 +127,37 @@ class SlabDecomposition {
   // the scatter writes one), exchanged and added within this rank's active nodes.
   template <class T>
   void sumHalo(GridFields<D, T>& fields, const NodeBox<D>& active, bool force) {
-    if (!distributed()) return;
     using V = Vec<D, T>;
+    exchangeBand(
+        active,
+        [&](int k, std::string& bytes) {
+          const bool written = fields.mass[k] != 0 || (fields.velocity[k].array() != 0).any() ||
+                               (force && (fields.force[k].array() != 0).any());
+          if (!written) return;
+          append(bytes, k);
+          append(bytes, fields.mass[k]);
+          append(bytes, fields.velocity[k]);
+          if (force) append(bytes, fields.force[k]);
+        },
+        [&](const std::string& bytes, size_t& at) {
+          const int k = take<int>(bytes, at);
+          const T mass = take<T>(bytes, at);
+          const V momentum = take<V>(bytes, at);
+          const V node_force = force ? take<V>(bytes, at) : V::Zero();
+          if (!contains(active, k)) return;  // no particle of this rank reaches it
+          fields.mass[k] += mass;
+          fields.velocity[k] += momentum;
+          if (force) fields.force[k] += node_force;
+        });
+  }
+
+  // What the ranks on either side of a cut exchange of the nodes they share: to each neighbour
+  // the records pack(k, bytes) appends (each starting with its node, or none) for the shared band's
+  // nodes k within this rank's active box, storage coordinates; then unpack(bytes, at) reads one
+  // record at a time of what the neighbours sent, in rank order.
+  template <class Pack, class Unpack>
+  void exchangeBand(const NodeBox<D>& active, Pack&& pack, Unpack&& unpack) {
+    if (!distributed()) return;
     std::vector<std::string> to(ranks());
     const auto packBand = [&](int neighbour, int cut_layer) {
       std::string& bytes = to[neighbour];
@@ -105,33 +166,36 @@ class SlabDecomposition {
       band.hi[axis_] = std::min(band.hi[axis_], cut_layer + 3 + GridGeometry<D>::ghost);
       if (band.lo[axis_] >= band.hi[axis_]) return;
       for (int n = 0, count = band.count(); n < count; ++n) {
-        const int k = band.flatIndex(grid_, n);
-        const bool written = fields.mass[k] != 0 || (fields.velocity[k].array() != 0).any() ||
-                             (force && (fields.force[k].array() != 0).any());
-        if (!written) continue;
-        append(bytes, k);
-        append(bytes, fields.mass[k]);
-        append(bytes, fields.velocity[k]);
-        if (force) append(bytes, fields.force[k]);
-        ++traffic_.halo_nodes;
+        const size_t before = bytes.size();
+        pack(band.flatIndex(grid_, n), bytes);
+        traffic_.halo_nodes += bytes.size() > before;
       }
       traffic_.halo_bytes += static_cast<long>(bytes.size());
     };
     if (rank() > 0) packBand(rank() - 1, cuts_[rank() - 1]);
     if (rank() + 1 < ranks()) packBand(rank() + 1, cuts_[rank()]);
-    const std::vector<std::string> from = world_.allToAll(to);
-    for (const std::string& bytes : from) {
-      for (size_t at = 0; at < bytes.size();) {
-        const int k = take<int>(bytes, at);
-        const T mass = take<T>(bytes, at);
-        const V momentum = take<V>(bytes, at);
-        const V node_force = force ? take<V>(bytes, at) : V::Zero();
-        if (!contains(active, k)) continue;  // no particle of this rank reaches it
-        fields.mass[k] += mass;
-        fields.velocity[k] += momentum;
-        if (force) fields.force[k] += node_force;
-      }
+    for (const std::string& bytes : world_.allToAll(to))
+      for (size_t at = 0; at < bytes.size();) unpack(bytes, at);
+  }
+  // Whether node k (a flat index) lies in box.
+  bool contains(const NodeBox<D>& box, int k) const {
+    for (int a = 0; a < D; ++a) {
+      const int i = (k / grid_.stride[a]) % grid_.nodes[a];
+      if (i < box.lo[a] || i >= box.hi[a]) return false;
     }
+    return true;
+  }
+  // A record's values, appended to bytes and taken back from `at` on.
+  template <class T>
+  static void append(std::string& bytes, const T& value) {
+    bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
+  }
+  template <class T>
+  static T take(std::string_view bytes, size_t& at) {
+    T value;
+    std::memcpy(static_cast<void*>(&value), bytes.data() + at, sizeof value);
+    at += sizeof value;
+    return value;
   }
 
   // The largest of each rank's values and the sum of its `sum` added in rank order (the same on
@@ -208,17 +272,6 @@ class SlabDecomposition {
 
  private:
   template <class T>
-  static void append(std::string& bytes, const T& value) {
-    bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
-  }
-  template <class T>
-  static T take(const std::string& bytes, size_t& at) {
-    T value;
-    std::memcpy(static_cast<void*>(&value), bytes.data() + at, sizeof value);
-    at += sizeof value;
-    return value;
-  }
-  template <class T>
   static std::string asBytes(const std::vector<T>& values) {
     return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   }
@@ -229,14 +282,6 @@ class SlabDecomposition {
     if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
     return values;
   }
-  bool contains(const NodeBox<D>& box, int k) const {
-    for (int a = 0; a < D; ++a) {
-      const int i = (k / grid_.stride[a]) % grid_.nodes[a];
-      if (i < box.lo[a] || i >= box.hi[a]) return false;
-    }
-    return true;
-  }
-
   // The cell layer of position x along the axis, as the stencils find it, within the domain.
   template <class T>
   int layerOf(const Vec<D, T>& x) const {
@@ -311,7 +356,7 @@ class SlabDecomposition {
     return bytes;
   }
   template <class P>
-  void unpack(const std::string& bytes, P& particles) const {
+  void unpack(std::string_view bytes, P& particles) const {
     size_t per_particle = 0;
     int a = 0;
     particles.forEachArray([&]<class E>(std::vector<E>&) {
@@ -340,6 +385,8 @@ class SlabDecomposition {
   GridGeometry<D> grid_;
   int axis_ = 0;
   std::vector<int> cuts_;
+  int step_axis_ = 0;  // the axis and cuts of the step before the last migrate
+  std::vector<int> step_cuts_;
   std::vector<char> used_;  // per array of forEachArray: whether the particles use it
   RankTraffic traffic_;
 };

@@ -20,6 +20,7 @@
 // functions are per particle and per node; the solver's step schedules them (MpmSolver).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -289,6 +290,82 @@ class CrackOpening {
   void keepBlock(int block, int colour, Region&& region);
   void addKeptBlock(int block, int colour, T scale);
 
+  // Across MPI ranks, at the nodes a rank shares with a neighbour (RankState::exchangeBand), what
+  // the particles of each scattered there: of the crack step's scatter before its node update, of
+  // the priming passes before their node passes. shareAt sums node k's partial fields over the
+  // colours into the first colour's, in colour order as updateNode sums them, and returns the sum
+  // (false when nothing is there); addShare adds a neighbour's. Both ranks then hold the same sums
+  // (a + b == b + a), and the same reference: the larger, ties to the larger components.
+  struct NodeShare {
+    int k;
+    char touched;
+    T damage, reference_norm, mass[2];
+    V reference, normal[2], momentum[2];
+  };
+  bool shareAt(int k, NodeShare& share) {
+    share = {k, 0, 0, 0, {0, 0}, V::Zero(), {V::Zero(), V::Zero()}, {V::Zero(), V::Zero()}};
+    share.reference = largestReference(k);
+    share.reference_norm = share.reference.norm();
+    for (Partial& g : partial_) {
+      share.touched |= g.touched[k];
+      share.damage += g.damage[k];
+      for (int f = 0; f < 2; ++f) {
+        share.mass[f] += g.mass[f][k];
+        share.normal[f] += g.normal[f][k];
+        share.momentum[f] += g.momentum[f][k];
+      }
+      clearPartial(g, k);
+    }
+    Partial& first = partial_[0];
+    first.touched[k] = share.touched;
+    first.damage[k] = share.damage;
+    first.reference_norm[k] = share.reference_norm;
+    first.reference[k] = share.reference;
+    for (int f = 0; f < 2; ++f) {
+      first.mass[f][k] = share.mass[f];
+      first.normal[f][k] = share.normal[f];
+      first.momentum[f][k] = share.momentum[f];
+    }
+    return share.touched || share.damage != 0 || share.reference_norm != 0 || share.mass[0] != 0 ||
+           share.mass[1] != 0;
+  }
+  void addShare(const NodeShare& share) {
+    Partial& g = partial_[0];
+    const int k = share.k;
+    g.touched[k] |= share.touched;
+    g.damage[k] += share.damage;
+    for (int f = 0; f < 2; ++f) {
+      g.mass[f][k] += share.mass[f];
+      g.normal[f][k] += share.normal[f];
+      g.momentum[f][k] += share.momentum[f];
+    }
+    const auto key = [](T norm, const V& r) {
+      std::array<T, D + 1> key{norm};
+      for (int a = 0; a < D; ++a) key[a + 1] = r[a];
+      return key;
+    };
+    if (key(share.reference_norm, share.reference) > key(g.reference_norm[k], g.reference[k])) {
+      g.reference_norm[k] = share.reference_norm;
+      g.reference[k] = share.reference;
+    }
+  }
+  // What the next step reads of node k, for a particle that migrates to another rank, whose own
+  // particles may not have reached the node: false when it is all zero.
+  struct NodeState {
+    int k;
+    T damage, grains;
+    V reference;
+  };
+  bool stateAt(int k, NodeState& state) const {
+    state = {k, node_.damage[k], node_.grains[k], node_.reference[k]};
+    return state.damage != 0 || state.grains != 0 || !state.reference.isZero(0);
+  }
+  void setState(const NodeState& state) {
+    node_.damage[state.k] = state.damage;
+    node_.grains[state.k] = state.grains;
+    node_.reference[state.k] = state.reference;
+  }
+
   // What the next step reads of the nodes (the damage field, the grains' mass, the references),
   // for a checkpoint: the nodes where any is not zero, and back.
   template <class Writer>
@@ -382,6 +459,13 @@ class CrackOpening {
       for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
     }
   };
+  static void clearPartial(Partial& g, int k) {
+    g.touched[k] = 0;
+    g.damage[k] = g.reference_norm[k] = g.mass[0][k] = g.mass[1][k] = 0;
+    for (V* a :
+         {&g.reference[k], &g.normal[0][k], &g.normal[1][k], &g.momentum[0][k], &g.momentum[1][k]})
+      a->setZero();
+  }
   // Gradient `gradient` of norm `norm` reaching node k with weight w, into colour g's largest.
   static void refer(Partial& g, int k, T w, const V& gradient, T norm) {
     if (w > 0 && norm > g.reference_norm[k]) {
@@ -448,11 +532,7 @@ void CrackOpening<D, T>::keepBlock(int block, int colour, Region&& region) {
                  s.reference[k],
                  {s.normal[0][k], s.normal[1][k]},
                  {s.momentum[0][k], s.momentum[1][k]}});
-    s.touched[k] = 0;
-    s.damage[k] = s.reference_norm[k] = s.mass[0][k] = s.mass[1][k] = 0;
-    for (V* a :
-         {&s.reference[k], &s.normal[0][k], &s.normal[1][k], &s.momentum[0][k], &s.momentum[1][k]})
-      a->setZero();
+    clearPartial(s, k);
   });
 }
 template <int D, class T>
@@ -495,8 +575,10 @@ struct OneVelocityPerNode {
   const GridFields<D, T>& fields;
 
   static constexpr std::string_view scatter_stage = "scatter";
-  template <class Schedule>
-  void prime(Schedule&) {}
+  template <class Schedule, class Ranks>
+  void prime(Schedule&, Ranks&) {}
+  template <class Ranks>
+  void sumShares(Ranks&, const NodeBox<D>&) {}
   NoOwnFields stillFields() const { return {}; }
   template <class PartialGrid, class Plain>
   void scatter(int p, PartialGrid& g, T, Plain&& plain) const {
@@ -543,9 +625,10 @@ class OpenCracks {
   }
 
   // The damage field and the references of the first step with damage (CrackOpening::mustPrime),
-  // over every particle, asleep or not, so that they see all the snow's mass and damage.
-  template <class Schedule>
-  void prime(Schedule& schedule) {
+  // over every particle, asleep or not, so that they see all the snow's mass and damage. ranks:
+  // the solver's RankState.
+  template <class Schedule, class Ranks>
+  void prime(Schedule& schedule, Ranks& ranks) {
     if (!cracks_.mustPrime()) return;
     using PartialGrid = typename Schedule::PartialGrid;
     schedule.scatter(
@@ -555,16 +638,27 @@ class OpenCracks {
           });
         },
         "crack: prime damage");
-    schedule.forScatteredNodes("crack: prime damage field",
-                               [&](int k) { cracks_.sumPrimedDamage(k); });
+    overPrimedNodes(schedule, ranks, "crack: prime damage field",
+                    [&](int k) { cracks_.sumPrimedDamage(k); });
     schedule.scatter(
         [&](int p, PartialGrid& g) {
           withRows(p,
                    [&](const auto& t) { cracks_.primeReference(t, inertia_inverse_, g.colour); });
         },
         "crack: prime references");
-    schedule.forScatteredNodes("crack: prime reference field",
-                               [&](int k) { cracks_.sumPrimedReference(k); });
+    overPrimedNodes(schedule, ranks, "crack: prime reference field",
+                    [&](int k) { cracks_.sumPrimedReference(k); });
+  }
+  // Across MPI ranks, between the sum of the grids and the node update: the neighbours' shares of
+  // the crack's partial fields at the nodes they share, added within this rank's active box.
+  template <class Ranks>
+  void sumShares(Ranks& ranks, const NodeBox<D>& active) {
+    using Share = typename CrackOpening<D, T>::NodeShare;
+    ranks.template exchangeRecords<Share>(
+        active, [&](int k, Share& share) { return cracks_.shareAt(k, share); },
+        [&](const Share& share) {
+          if (ranks.contains(active, share.k)) cracks_.addShare(share);
+        });
   }
 
   // 1 + 3: into each node's side, with what the particle reads of the damage field, or, asleep
@@ -629,6 +723,14 @@ class OpenCracks {
   }
 
  private:
+  // f(k) over the nodes a priming scatter reached, across ranks with the neighbours' shares.
+  template <class Schedule, class Ranks, class F>
+  void overPrimedNodes(Schedule& schedule, Ranks& ranks, std::string_view stage, F&& f) {
+    if (!ranks.distributed()) return schedule.forScatteredNodes(stage, f);
+    const NodeBox<D> active = schedule.activeNodes();
+    schedule.timed("crack: prime exchange", [&] { sumShares(ranks, active); });
+    schedule.forBoxNodes(stage, f);
+  }
   // Damage d = 1 - strength left (SnowMaterial::fracture_strain) of particle p.
   T damage(int p) const { return 1 - strengthLeft<T>(material_, particles_.J_P[p]); }
   // f(rows of particle p's stencil), in the build for isa_.

@@ -107,7 +107,44 @@ void MpmSolver<D, T>::advance(Real dt) {
     for (const PartMeasure& m : part_measures_) asleep += m.asleep;
     sleeper_->count(ranks_.sum(asleep), total_particles_);
   }
-  if (ranks_.migrate(particles_, this->steps() + 1)) schedule_.resize(particles_.x);
+  migrate();
+}
+
+template <int D, class T>
+void MpmSolver<D, T>::migrate() {
+  const long step = this->steps() + 1;
+  if (!cracks_ || !cracks_->holdsDamage()) {
+    if (ranks_.migrate(particles_, step)) schedule_.resize(particles_.x);
+    return;
+  }
+  // With cracks, a particle reads at its new rank next step the damage field and references at
+  // its stencil's nodes, which that rank's own particles may not have reached: they come with it,
+  // from the nodes its old rank's particles could reach.
+  using State = typename CrackOpening<D, T>::NodeState;
+  using Slabs = SlabDecomposition<D>;
+  const NodeBox<D> active = schedule_.activeNodes();
+  const auto carry = [&](const std::vector<int>& leaving, std::string& bytes) {
+    std::vector<int> nodes;
+    withKernel(params_.kernel, [&]<class Kernel>() {
+      for (const int p : leaving)
+        forEachStencilNode<D, Kernel>(grid_, particles_.x[p],
+                                      [&](int k, T, const V&) { nodes.push_back(k); });
+    });
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    for (const int k : nodes)
+      if (State state; ranks_.slabs().reachedInLastStep(k) && cracks_->stateAt(k, state))
+        Slabs::append(bytes, state);
+  };
+  const auto arrive = [&](std::string_view bytes) {
+    for (size_t at = 0; at < bytes.size();) {
+      const State state = Slabs::template take<State>(bytes, at);
+      const bool own =
+          ranks_.slabs().reachedInLastStep(state.k) && ranks_.contains(active, state.k);
+      if (!own) cracks_->setState(state);
+    }
+  };
+  if (ranks_.migrate(particles_, step, carry, arrive)) schedule_.resize(particles_.x);
 }
 
 template <int D, class T>
@@ -125,8 +162,9 @@ void MpmSolver<D, T>::withParts(F&& f) {
     // Until some snow is stretched past J_P = 1 there is no damage, and one velocity a node does;
     // once it has healed, one more crack step clears the damage field.
     if (cracks_) {
-      const bool damaged =
-          std::any_of(particles_.J_P.begin(), particles_.J_P.end(), [](T J_P) { return J_P > 1; });
+      // Across ranks the whole snow's: the ranks share the nodes near their cuts.
+      const bool damaged = ranks_.anyOverRanks(
+          std::any_of(particles_.J_P.begin(), particles_.J_P.end(), [](T J_P) { return J_P > 1; }));
       if (damaged || cracks_->holdsDamage()) {
         OpenCracks<D, T, Kernel> opening(*cracks_, particles_, material_, grid_, fields_,
                                          inertia_inverse_, damaged,
@@ -159,7 +197,7 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
   // exchanges between ranks, which only the calling thread makes.
   schedule_.step(particles_, !semi_implicit && !ranks_.distributed(), [&] {
     // Open cracks, at the first step with damage: its damage field and references.
-    opening.prime(schedule_);
+    opening.prime(schedule_, ranks_);
     // 1, 3: mass, momentum and forces to the grid (with open cracks, into each node's side);
     // resting snow's momentum is dt times its stress's share, kept by still blocks.
     const auto scatterAt = [&](T scale) {
@@ -179,7 +217,7 @@ void MpmSolver<D, T>::stepWith(T dt, Opening& opening, Sleep& sleep) {
             opening.collide(k, fields_.mass[k], fields_.velocity[k], dt, gravity_,
                             [&](V& v) { collideAtNode(k, v); });
         },
-        !Transfer::mls);
+        !Transfer::mls, [&] { opening.sumShares(ranks_, schedule_.activeNodes()); });
     if (semi_implicit)  // 5 + 6: collided v*, then the solve
       schedule_.timed("implicit solve", [&] { solveImplicitVelocities(dt); });
     // 8, 7, 9, 10 in one pass: each particle's arrays are loaded once for all four.

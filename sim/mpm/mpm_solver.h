@@ -126,6 +126,8 @@ class MpmSolver final : public Solver<D> {
   }
   void beforeFirstStep() override;
   void advance(Real dt) override;
+  // After a step across ranks: the particles that left their slab move to their new rank.
+  void migrate();
   void checkDivergence(Real dt) const override;
   void saveSolverState(StateWriter& out) const override;
   void loadSolverState(StateReader& in) override;

@@ -164,6 +164,13 @@ class ParticleGridSchedule final : public LoopRunner {
   // summing the partial grids: for fields of the physics' own that a scatter of its own summed.
   template <class F>
   void forScatteredNodes(std::string_view stage, F&& f);
+  // f(k) for every node of the box updateNodes visits, also those only other ranks' particles
+  // reach (updateNodes with between).
+  template <class F>
+  void forBoxNodes(std::string_view stage, F&& f) {
+    const StageClock::Scope time = timeStage(stage);
+    overBoxNodes(stage, f);
+  }
   // The nodes the particles reach now (sim/parallel/row_binning.h).
   const NodeBox<D>& activeNodes() const { return binning_.active(); }
   template <class Measure, class F>
@@ -244,6 +251,9 @@ class ParticleGridSchedule final : public LoopRunner {
   // parts' speeds, by which the lines are cut (the grid update's).
   template <class F>
   void overScatteredNodes(std::string_view stage, bool measure, F&& f);
+  // f(k) over every node of the updated box, each part its lines.
+  template <class F>
+  void overBoxNodes(std::string_view stage, F&& f);
   // Zero over the updated nodes: only a scatter no grid stage followed needs it.
   void emptyPartialGrids();
   void sumPartialGrids(int k, Fields& fields);
@@ -435,21 +445,25 @@ template <class F, class Between>
 void ParticleGridSchedule<D, P>::updateNodes(Fields& fields, F&& f, Between&& between) {
   // Every node of the box, not only the runs near this rank's particles: between() may give mass
   // to nodes that only the neighbour ranks' particles reach.
+  const StageClock::Scope time = timeStage("grid update");
+  overBoxNodes("grid sum", [&](int k) { sumPartialGrids(k, fields); });
+  team_.serially("grid exchange", between);
+  overBoxNodes("grid update", f);
+}
+
+template <int D, class P>
+template <class F>
+void ParticleGridSchedule<D, P>::overBoxNodes(std::string_view stage, F&& f) {
   const NodeBox<D>& box = binning_.updated();
   const int width = box.hi[0] - box.lo[0];
   const int lines = width > 0 ? box.count() / width : 0;
-  const StageClock::Scope time = timeStage("grid update");
-  const auto forMyLines = [&](int part, auto&& node) {
+  team_.forEachPart(stage, [&](int part) {
     const int first = line_shares_.start(part, lines), last = line_shares_.start(part + 1, lines);
     for (int line = first; line < last; ++line) {
       const int k = box.flatIndex(grid_, line * width);
-      for (int i = 0; i < width; ++i) node(k + i);
+      for (int i = 0; i < width; ++i) f(k + i);
     }
-  };
-  team_.forEachPart(
-      "grid sum", [&](int part) { forMyLines(part, [&](int k) { sumPartialGrids(k, fields); }); });
-  team_.serially("grid exchange", between);
-  team_.forEachPart("grid update", [&](int part) { forMyLines(part, f); });
+  });
 }
 
 template <int D, class P>

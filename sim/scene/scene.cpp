@@ -726,9 +726,6 @@ void refuseWhatIsNotDistributed(const Scene& scene, int ranks) {
       scene.mpm.precision == MpmPrecision::Double)
     throw InputError(scene.file + ": mpm.integrator \"semi_implicit\" runs in one process; " +
                      "across MPI ranks only \"explicit\" is distributed");
-  if (scene.mpm.open_cracks)
-    throw InputError(scene.file + ": mpm.open_cracks runs in one process; set it to false to " +
-                     "split the run across MPI ranks");
 }
 
 }  // namespace snowsim

@@ -200,12 +200,46 @@ TEST(SlabDecomposition, ParticlesThatLeaveTheSlabGoToTheirRank) {
     EXPECT_NE(id, moved_first);
     EXPECT_NE(id, moved_second);
   }
-  // Each of the two carries every array: x, v (2 doubles each), mass, volume, body and id.
+  // Their length, then each of the two with every array: x, v (2 doubles each), mass, volume,
+  // body and id.
   ASSERT_EQ(world.sent.size(), 2u);
   EXPECT_TRUE(world.sent[0].empty());
-  EXPECT_EQ(world.sent[1].size(), 2 * (4 * sizeof(Real) + 2 * sizeof(Real) + 2 * sizeof(int)));
+  EXPECT_EQ(world.sent[1].size(), 8 + 2 * (4 * sizeof(Real) + 2 * sizeof(Real) + 2 * sizeof(int)));
   EXPECT_EQ(slabs.traffic().particles_sent, 2);
   EXPECT_EQ(slabs.traffic().steps, 2);
+}
+
+TEST(SlabDecomposition, WhatParticlesCarryArrivesOnceTheyAreStored) {
+  // Rank 0 of two, whose messages come back to it as rank 1's: the two particles that leave
+  // come back with the ids their carry wrote, read once both are stored again.
+  ScriptedWorld world(0, 2);
+  world.loopback = true;
+  SlabDecomposition<2> slabs(world, kGrid);
+  Particles<2> particles = lattice();
+  slabs.keepOwn(particles);
+  particles.x[0] = V(9.5, 0.5);
+  particles.x[3] = V(8.25, 1.5);
+  const std::vector<int> leaving_ids = {particles.id[0], particles.id[3]};
+  std::vector<int> carried;
+  int stored_on_arrival = 0;
+  EXPECT_TRUE(slabs.migrate(
+      particles, 2,
+      [&](const std::vector<int>& leaving, std::string& bytes) {
+        ASSERT_EQ(leaving, (std::vector<int>{0, 3}));
+        for (const int p : leaving) SlabDecomposition<2>::append(bytes, particles.id[p]);
+      },
+      [&](std::string_view bytes) {
+        stored_on_arrival = particles.size();
+        for (size_t at = 0; at < bytes.size();)
+          carried.push_back(SlabDecomposition<2>::take<int>(bytes, at));
+      }));
+  EXPECT_EQ(carried, leaving_ids);
+  EXPECT_EQ(stored_on_arrival, 64);
+  EXPECT_EQ(particles.id[62], leaving_ids[0]);
+  EXPECT_EQ(particles.id[63], leaving_ids[1]);
+  // The step's slab, cells 0..7, reached the nodes of columns -1 .. 9.
+  for (int i = -1; i < 12; ++i)
+    EXPECT_EQ(slabs.reachedInLastStep(kGrid.index(IVec<2>(i, 3))), i <= 9) << i;
 }
 
 TEST(SlabDecomposition, GatherByIdPutsEveryRanksParticlesBackInCreationOrder) {

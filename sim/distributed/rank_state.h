@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,8 @@ class RankState {
         active,
         [&](int k, std::string& bytes) {
           Record record;
+          // Its padding too: the same bytes on the wire, run after run.
+          std::memset(static_cast<void*>(&record), 0, sizeof record);
           if (pack(k, record)) Slabs::append(bytes, record);
         },
         [&](const std::string& bytes, size_t& at) {

@@ -112,13 +112,16 @@ class SlabDecomposition {
         particles, step, [](const std::vector<int>&, std::string&) {}, [](std::string_view) {});
   }
   // Whether this rank's particles could reach node k (flat index) in the step before the last
-  // migrate: the nodes c-1 .. c+2 of its slab's cell layers c under that step's cuts.
+  // migrate (before any, under the present cuts): the nodes c-1 .. c+2 of its slab's cell layers
+  // c under that step's cuts.
   bool reachedInLastStep(int k) const {
     if (!distributed()) return true;
-    const int a = step_axis_;
+    const bool migrated = step_cuts_.size() == cuts_.size();
+    const int a = migrated ? step_axis_ : axis_;
+    const std::vector<int>& cuts = migrated ? step_cuts_ : cuts_;
     const int layer = (k / grid_.stride[a]) % grid_.nodes[a] - GridGeometry<D>::ghost;
-    const int first = rank() == 0 ? 0 : step_cuts_[rank() - 1];
-    const int end = rank() + 1 < ranks() ? step_cuts_[rank()] : grid_.cells[a];
+    const int first = rank() == 0 ? 0 : cuts[rank() - 1];
+    const int end = rank() + 1 < ranks() ? cuts[rank()] : grid_.cells[a];
     return layer >= first - 1 && layer <= end + 1;
   }
 

@@ -290,9 +290,9 @@ class CrackOpening {
   void keepBlock(int block, int colour, Region&& region);
   void addKeptBlock(int block, int colour, T scale);
 
-  // Across MPI ranks, at the nodes a rank shares with a neighbour (RankState::exchangeBand), what
-  // the particles of each scattered there: of the crack step's scatter before its node update, of
-  // the priming passes before their node passes. shareAt sums node k's partial fields over the
+  // Across MPI ranks, at the nodes a rank shares with a neighbour (RankState::exchangeRecords),
+  // what the particles of each scattered there: of the crack step's scatter before its node update,
+  // of the priming passes before their node passes. shareAt sums node k's partial fields over the
   // colours into the first colour's, in colour order as updateNode sums them, and returns the sum
   // (false when nothing is there); addShare adds a neighbour's. Both ranks then hold the same sums
   // (a + b == b + a), and the same reference: the larger, ties to the larger components.
@@ -303,10 +303,14 @@ class CrackOpening {
     V reference, normal[2], momentum[2];
   };
   bool shareAt(int k, NodeShare& share) {
-    share = {k, 0, 0, 0, {0, 0}, V::Zero(), {V::Zero(), V::Zero()}, {V::Zero(), V::Zero()}};
+    share.k = k;
+    share.touched = 0;
+    share.damage = share.mass[0] = share.mass[1] = 0;
+    for (int f = 0; f < 2; ++f) share.normal[f] = share.momentum[f] = V::Zero();
     share.reference = largestReference(k);
     share.reference_norm = share.reference.norm();
-    for (Partial& g : partial_) {
+    for (Partial& g : partial_) {  // a side's momentum or normal comes with its touched bit
+      if (!g.touched[k] && g.damage[k] == 0 && g.mass[0][k] == 0 && g.mass[1][k] == 0) continue;
       share.touched |= g.touched[k];
       share.damage += g.damage[k];
       for (int f = 0; f < 2; ++f) {
@@ -316,18 +320,10 @@ class CrackOpening {
       }
       clearPartial(g, k);
     }
-    Partial& first = partial_[0];
-    first.touched[k] = share.touched;
-    first.damage[k] = share.damage;
-    first.reference_norm[k] = share.reference_norm;
-    first.reference[k] = share.reference;
-    for (int f = 0; f < 2; ++f) {
-      first.mass[f][k] = share.mass[f];
-      first.normal[f][k] = share.normal[f];
-      first.momentum[f][k] = share.momentum[f];
-    }
-    return share.touched || share.damage != 0 || share.reference_norm != 0 || share.mass[0] != 0 ||
-           share.mass[1] != 0;
+    const bool any = share.touched || share.damage != 0 || share.reference_norm != 0 ||
+                     share.mass[0] != 0 || share.mass[1] != 0;
+    if (any) addShare(share);  // into the first colour's, emptied above
+    return any;
   }
   void addShare(const NodeShare& share) {
     Partial& g = partial_[0];

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <utility>
 
@@ -132,8 +133,10 @@ void MpmSolver<D, T>::migrate() {
     });
     std::sort(nodes.begin(), nodes.end());
     nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    State state;
+    std::memset(static_cast<void*>(&state), 0, sizeof state);  // its padding: the same bytes
     for (const int k : nodes)
-      if (State state; ranks_.slabs().reachedInLastStep(k) && cracks_->stateAt(k, state))
+      if (ranks_.slabs().reachedInLastStep(k) && cracks_->stateAt(k, state))
         Slabs::append(bytes, state);
   };
   const auto arrive = [&](std::string_view bytes) {

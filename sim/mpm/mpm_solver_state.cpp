@@ -147,7 +147,7 @@ void MpmSolver<D, T>::describe(Snapshot& snapshot) const {
   const Real area = grid_.h * grid_.h;
   if (D == 2 && cracks_) {
     // Near an open crack the grid's own mass is side 0's alone: every field's is scattered again,
-    // from the particles where they are now. One process: open cracks refuse MPI.
+    // from the particles where they are now (on rank 0 across ranks: it holds them all here).
     std::vector<T> mass(grid_.nodeCount());
     withKernel(params_.kernel, [&]<class Kernel>() {
       for (int p = 0; p < n; ++p)

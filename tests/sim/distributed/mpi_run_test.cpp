@@ -39,8 +39,8 @@ nlohmann::json summaryOf(const fs::path& dir) {
   return nlohmann::json::parse(std::ifstream(dir / "run.json"));
 }
 
-// How far apart two runs' particles are in a frame: the largest and the mean difference of any
-// coordinate (metres).
+// How far apart two runs' particles are in a frame, each particle by its largest difference of a
+// coordinate: the largest and the mean over the particles (metres).
 struct PositionDifference {
   double largest = 0, mean = 0;
 };
@@ -207,9 +207,16 @@ TEST(Mpi, ResumeAcrossRanksWithCracksWritesTheFramesOfTheWholeRun) {
   stopAtFrame(args, out, "frame_00002.ply");  // 0.04 s: cracks from 0.032 s on
   ASSERT_TRUE(fs::exists(out / "checkpoint.snowsim")) << "stopped without a checkpoint";
   ASSERT_FALSE(fs::exists(out / "frame_00006.ply")) << "the run ended before the signal";
+  const auto stopped = summaryOf(out);
+  EXPECT_EQ(stopped["interrupted_by_signal"], SIGTERM);
+  const auto stages = stopped["stages"];
+  EXPECT_TRUE(std::any_of(stages.begin(), stages.end(), [](const auto& s) {
+    return s["stage"] == "crack: scatter";
+  })) << "stopped before the snow cracked";
   const auto resumed = runCommand(mpirun(2) + " resume " + out.string());
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(frames(out), frames(whole));
+  EXPECT_EQ(summaryOf(out)["steps"], summaryOf(whole)["steps"]);
 }
 
 // OpenMPI 4's mpirun kills the ranks 1 s after passing a stop on unless given more: a run across

@@ -236,6 +236,68 @@ THREADED_TEST(CrackOpening, WithAutoSleepSameResultsOnOneAndTwoThreads) {
   EXPECT_EQ(one.statistics().auto_sleep.asleep_steps, two.statistics().auto_sleep.asleep_steps);
 }
 
+// Across MPI ranks (OpenCracks::sumShares): each rank's share of a node, the sum over its own
+// colours, added on both gives both ranks the same fields, bit for bit, and one process's when the
+// second rank's colours come after the first's; the reference is the largest on both.
+TEST(CrackOpening, TwoRanksSharesAddUpToOneProcessFields) {
+  using Cracks = CrackOpening<2, double>;
+  using Rows = TensorStencil<2, QuadraticBSpline, double>;
+  const GridGeometry<2> grid(IVec<2>(8, 8), 0.1);
+  const int nodes = grid.nodeCount();
+  const double inertia_inverse = 4 / (grid.h * grid.h);
+  Cracks one(nodes, 9, 3, 1, 0.6), first(nodes, 9, 3, 1, 0.6), second(nodes, 9, 3, 1, 0.6);
+  struct Grain {
+    Vec<2> x;
+    double mass, damage;
+    int colour;
+    Cracks* rank;
+  };
+  const Grain grains[] = {{Vec<2>(0.31, 0.33), 1.0, 0.3, 0, &first},
+                          {Vec<2>(0.36, 0.29), 1.3, 0.7, 4, &first},
+                          {Vec<2>(0.34, 0.41), 0.7, 1.0, 7, &second}};
+  const auto withRows = [&](const Grain& g, auto&& f) {
+    const Stencil<2, QuadraticBSpline, double> s(g.x, 1 / grid.h);  // the rows refer to it
+    f(Rows(grid, s, g.x));
+  };
+  const auto share = [&](int k) {
+    Cracks::NodeShare a, b;
+    const bool from_first = first.shareAt(k, a), from_second = second.shareAt(k, b);
+    if (from_second) first.addShare(b);
+    if (from_first) second.addShare(a);
+  };
+  const auto same = [&](const char* what) {
+    int damaged = 0;
+    for (int k = 0; k < nodes; ++k) {
+      Cracks::NodeState o, a, b;
+      damaged += one.stateAt(k, o);
+      first.stateAt(k, a);
+      second.stateAt(k, b);
+      for (const Cracks::NodeState* s : {&a, &b}) {
+        EXPECT_EQ(s->damage, o.damage) << what << " at node " << k;
+        EXPECT_EQ(s->grains, o.grains) << what << " at node " << k;
+        EXPECT_EQ(s->reference, o.reference) << what << " at node " << k;
+      }
+    }
+    EXPECT_GT(damaged, 9) << what;
+  };
+  for (const Grain& g : grains)
+    for (Cracks* c : {&one, g.rank})
+      withRows(g, [&](const Rows& t) { c->primeDamage(t, g.mass, g.damage, g.colour); });
+  for (int k = 0; k < nodes; ++k) {
+    share(k);
+    for (Cracks* c : {&one, &first, &second}) c->sumPrimedDamage(k);
+  }
+  same("damage field");
+  for (const Grain& g : grains)
+    for (Cracks* c : {&one, g.rank})
+      withRows(g, [&](const Rows& t) { c->primeReference(t, inertia_inverse, g.colour); });
+  for (int k = 0; k < nodes; ++k) {
+    share(k);
+    for (Cracks* c : {&one, &first, &second}) c->sumPrimedReference(k);
+  }
+  same("references");
+}
+
 TEST(CrackOpening, BadSettingsNameTheField) {
   Json j = Json::parse(R"({
     "name": "t", "dimension": 2, "solver": "mpm",

@@ -69,10 +69,20 @@ class RankState {
   // After a step: the particles that left this rank's slab move to their new rank. Returns
   // whether this rank's particles changed.
   bool migrate(P& particles, long step) { return slabs_.migrate(particles, step); }
-  // The same with what the particles carry (SlabDecomposition::migrate).
-  template <class Carry, class Arrive>
-  bool migrate(P& particles, long step, Carry&& carry, Arrive&& arrive) {
-    return slabs_.migrate(particles, step, carry, arrive);
+  // The same with records of plain data that the leaving particles carry (SlabDecomposition::
+  // migrate): carry(leaving, send) calls send(record) for each of those for particles `leaving`,
+  // and arrive(record) takes each at their new rank once they are stored there.
+  template <class Record, class Carry, class Arrive>
+  bool migrateWithRecords(P& particles, long step, Carry&& carry, Arrive&& arrive) {
+    using Slabs = SlabDecomposition<D>;
+    return slabs_.migrate(
+        particles, step,
+        [&](const std::vector<int>& leaving, std::string& bytes) {
+          carry(leaving, [&](const Record& record) { Slabs::append(bytes, record); });
+        },
+        [&](std::string_view bytes) {
+          for (size_t at = 0; at < bytes.size();) arrive(Slabs::template take<Record>(bytes, at));
+        });
   }
 
   // The whole snow's measures, alike on every rank: the largest speeds and every rank's energy.

@@ -20,9 +20,11 @@
 // functions are per particle and per node; the solver's step schedules them (MpmSolver).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "sim/core/grid.h"
@@ -356,11 +358,14 @@ class CrackOpening {
     state = {k, node_.damage[k], node_.grains[k], node_.reference[k]};
     return state.damage != 0 || state.grains != 0 || !state.reference.isZero(0);
   }
-  void setState(const NodeState& state) {
-    node_.damage[state.k] = state.damage;
-    node_.grains[state.k] = state.grains;
-    node_.reference[state.k] = state.reference;
-  }
+  // Across MPI ranks, after a step that holds damage: the particles that left their slab move to
+  // their new rank (RankState::migrateWithRecords), each bringing what the next step reads at its
+  // stencil's nodes, which that rank's own particles may not have reached, from the nodes its old
+  // rank's particles could reach. The new rank keeps its own values where its particles could
+  // reach the node and its active box holds it. Returns whether this rank's particles changed.
+  template <class Kernel, class Ranks, class P>
+  bool migrate(Ranks& ranks, P& particles, const GridGeometry<D>& grid, const NodeBox<D>& active,
+               long step);
 
   // What the next step reads of the nodes (the damage field, the grains' mass, the references),
   // for a checkpoint: the nodes where any is not zero, and back.
@@ -455,6 +460,12 @@ class CrackOpening {
       for (auto* a : {&reference, &velocity[0], &velocity[1]}) a->resize(nodes);
     }
   };
+  // Node k's state from a neighbour rank (migrate).
+  void setState(const NodeState& state) {
+    node_.damage[state.k] = state.damage;
+    node_.grains[state.k] = state.grains;
+    node_.reference[state.k] = state.reference;
+  }
   static void clearPartial(Partial& g, int k) {
     g.touched[k] = 0;
     g.damage[k] = g.reference_norm[k] = g.mass[0][k] = g.mass[1][k] = 0;
@@ -506,6 +517,7 @@ class CrackOpening {
   std::vector<std::uint32_t> sides_;
   std::vector<std::uint64_t> side_bits_;
   std::vector<KeptBlock> kept_;  // per still block
+  std::vector<int> carried_;     // migrate's scratch: the nodes the leaving particles reach
   T friction_;
   long step_ = 0;
   bool holds_damage_ = false, must_prime_ = false;
@@ -550,6 +562,31 @@ void CrackOpening<D, T>::addKeptBlock(int block, int colour, T scale) {
       g.reference[k] = n.reference;
     }
   }
+}
+
+template <int D, class T>
+template <class Kernel, class Ranks, class P>
+bool CrackOpening<D, T>::migrate(Ranks& ranks, P& particles, const GridGeometry<D>& grid,
+                                 const NodeBox<D>& active, long step) {
+  const auto& slabs = ranks.slabs();
+  return ranks.template migrateWithRecords<NodeState>(
+      particles, step,
+      [&](const std::vector<int>& leaving, auto&& send) {
+        carried_.clear();
+        for (const int p : leaving)
+          forEachStencilNode<D, Kernel>(grid, particles.x[p],
+                                        [&](int k, T, const V&) { carried_.push_back(k); });
+        std::sort(carried_.begin(), carried_.end());
+        carried_.erase(std::unique(carried_.begin(), carried_.end()), carried_.end());
+        NodeState state;
+        std::memset(static_cast<void*>(&state), 0, sizeof state);  // its padding: the same bytes
+        for (const int k : carried_)
+          if (slabs.reachedInLastStep(k) && stateAt(k, state)) send(state);
+      },
+      [&](const NodeState& state) {
+        const bool own = slabs.reachedInLastStep(state.k) && ranks.contains(active, state.k);
+        if (!own) setState(state);
+      });
 }
 
 // MLS's affine momentum of particle p, which its scatter spreads with m_p v_p:

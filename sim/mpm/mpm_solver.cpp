@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <sstream>
 #include <utility>
 
@@ -114,40 +113,16 @@ void MpmSolver<D, T>::advance(Real dt) {
 template <int D, class T>
 void MpmSolver<D, T>::migrate() {
   const long step = this->steps() + 1;
-  if (!cracks_ || !cracks_->holdsDamage()) {
-    if (ranks_.migrate(particles_, step)) schedule_.resize(particles_.x);
-    return;
-  }
-  // With cracks, a particle reads at its new rank next step the damage field and references at
-  // its stencil's nodes, which that rank's own particles may not have reached: they come with it,
-  // from the nodes its old rank's particles could reach.
-  using State = typename CrackOpening<D, T>::NodeState;
-  using Slabs = SlabDecomposition<D>;
-  const NodeBox<D> active = schedule_.activeNodes();
-  const auto carry = [&](const std::vector<int>& leaving, std::string& bytes) {
-    std::vector<int> nodes;
-    withKernel(params_.kernel, [&]<class Kernel>() {
-      for (const int p : leaving)
-        forEachStencilNode<D, Kernel>(grid_, particles_.x[p],
-                                      [&](int k, T, const V&) { nodes.push_back(k); });
-    });
-    std::sort(nodes.begin(), nodes.end());
-    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-    State state;
-    std::memset(static_cast<void*>(&state), 0, sizeof state);  // its padding: the same bytes
-    for (const int k : nodes)
-      if (ranks_.slabs().reachedInLastStep(k) && cracks_->stateAt(k, state))
-        Slabs::append(bytes, state);
-  };
-  const auto arrive = [&](std::string_view bytes) {
-    for (size_t at = 0; at < bytes.size();) {
-      const State state = Slabs::template take<State>(bytes, at);
-      const bool own =
-          ranks_.slabs().reachedInLastStep(state.k) && ranks_.contains(active, state.k);
-      if (!own) cracks_->setState(state);
-    }
-  };
-  if (ranks_.migrate(particles_, step, carry, arrive)) schedule_.resize(particles_.x);
+  // With damage, each migrating particle brings the crack's fields it reads next step.
+  const bool moved =
+      cracks_ && cracks_->holdsDamage()
+          ? withKernel(params_.kernel,
+                       [&]<class Kernel>() {
+                         return cracks_->template migrate<Kernel>(ranks_, particles_, grid_,
+                                                                  schedule_.activeNodes(), step);
+                       })
+          : ranks_.migrate(particles_, step);
+  if (moved) schedule_.resize(particles_.x);
 }
 
 template <int D, class T>

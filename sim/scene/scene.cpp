@@ -9,6 +9,7 @@
 #include "sim/core/errors.h"
 #include "sim/io/ply.h"
 #include "sim/scene/json_fields.h"
+#include "sim/scene/material_presets.h"
 
 namespace snowsim {
 
@@ -269,6 +270,7 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
   m.fracture_strain = f.number("fracture_strain", m.fracture_strain, 0, 100);
   m.fracture_length = f.number("fracture_length", m.fracture_length, 0, 10);
+  f.string("preset", std::nullopt);  // checked, and laid beneath, by presetFor
   if (m.fracture_length > 0 && !(m.fracture_strain > 0)) {
     FieldError e(file, "material.fracture_length",
                  "needs material.fracture_strain > 0 (the strain its band fails at)");
@@ -277,6 +279,57 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   }
   f.finish();
   return m;
+}
+
+// The preset material.preset names, or the default.
+const MaterialPreset& presetOf(const Json* material, const std::string& file) {
+  if (!material || !material->contains("preset")) return defaultMaterialPreset();
+  JsonFields f(*material, "material", file);
+  return *findMaterialPreset(f.choice("preset", materialPresetNames(), std::nullopt));
+}
+
+// A string field's value, or the fallback when it is missing or not a string (which parseMpm
+// then reports).
+std::string stringOr(const Json& object, const std::string& key, const std::string& fallback) {
+  const auto it = object.find(key);
+  return it != object.end() && it->is_string() ? it->get<std::string>() : fallback;
+}
+
+// A preset's cracks or damper that the scene's own transfer or integrator cannot run: refused
+// naming both, where parseMpm would blame a field the scene does not write.
+void refusePresetConflicts(const MaterialPreset& preset, const Json& own_mpm,
+                           const Json& own_material, const std::string& file) {
+  const bool cracks = !own_mpm.contains("open_cracks") && preset.mpm.value("open_cracks", false);
+  const bool damper =
+      !own_material.contains("viscosity") && preset.material.value("viscosity", 0.0) > 0;
+  const std::string integrator = stringOr(own_mpm, "integrator", "explicit");
+  const std::string transfer = stringOr(own_mpm, "transfer", "mls");
+  std::string field, needs;
+  if (integrator != "explicit" && (cracks || damper)) {
+    field = "mpm.integrator";
+    needs = std::string(cracks ? "opens cracks (mpm.open_cracks), which need"
+                               : "has a damper (material.viscosity), which needs") +
+            " mpm.integrator \"explicit\", not \"" + integrator + "\"";
+  } else if (transfer != "mls" && cracks) {
+    field = "mpm.transfer";
+    needs =
+        "opens cracks (mpm.open_cracks), which need mpm.transfer \"mls\", not \"" + transfer + "\"";
+  } else {
+    return;
+  }
+  std::string without;
+  for (const MaterialPreset& p : materialPresets()) {
+    const bool runs = !p.mpm.value("open_cracks", false) &&
+                      (field == "mpm.transfer" || !(p.material.value("viscosity", 0.0) > 0));
+    if (runs) without += (without.empty() ? "\"" : ", \"") + p.name + "\"";
+  }
+  const bool named = own_material.contains("preset");
+  FieldError e(file, "material.preset",
+               "\"" + preset.name + "\"" + (named ? "" : " (the default when none is named)") +
+                   " " + needs + "; name a preset that runs with " + field + " (" + without +
+                   ") or set the preset's fields in the scene");
+  e.also = {field};  // a --set of either is blamed
+  throw e;
 }
 
 // A rotation (degrees) or angular velocity (degrees/s): a number in 2D (about z), x, y, z in 3D.
@@ -446,6 +499,7 @@ Body parseBody(const Json& j, int index, const Scene& scene, const JsonFields& s
   JsonFields f(j, path, scene.file);
   const std::vector<int> dims{scene.authored_dimension};
   Body b;
+  b.density = findMaterialPreset(scene.material_preset)->density;
   b.name = f.string("name", "body" + std::to_string(index));
   b.shape = f.choiceOf<BodyShape>("shape",
                                   {{"ball", BodyShape::Ball},
@@ -617,8 +671,17 @@ Scene parseScene(const Json& root, const std::string& file) {
                  ? SolverType::Mpm
                  : SolverType::DensityHybrid;
   s.density_hybrid = parseDensityHybrid(f.object("density_hybrid", false), file);
-  s.mpm = parseMpm(f.object("mpm", false), file, s.dimension);
-  s.material = parseMaterial(f.object("material", false), file);
+  const Json* own_mpm = f.object("mpm", false);
+  const Json* own_material = f.object("material", false);
+  const MaterialPreset& preset = presetOf(own_material, file);
+  refusePresetConflicts(preset, own_mpm ? *own_mpm : empty, own_material ? *own_material : empty,
+                        file);
+  s.material_preset = preset.name;
+  const Json mpm = beneath(own_mpm ? *own_mpm : empty, preset.mpm);
+  s.mpm = parseMpm(&mpm, file, s.dimension);
+  Json material = beneath(own_material ? *own_material : empty, preset.material);
+  material["preset"] = preset.name;
+  s.material = parseMaterial(&material, file);
   if (s.material.viscosity > 0 && s.mpm.integrator == MpmIntegrator::SemiImplicit)
     throw InputError(file +
                      ": material.viscosity runs only mpm.integrator \"explicit\" (the "

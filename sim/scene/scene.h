@@ -195,7 +195,10 @@ struct Scene {
   SolverType solver = SolverType::DensityHybrid;
   DensityHybridParams density_hybrid;
   MpmParams mpm;
-  SnowMaterial material;  // MPM snow; defaults are the paper's reference snow
+  // MPM snow: the fields of the material preset the scene names (chunky if none) beneath its own
+  // (sim/scene/material_presets.h). A Scene built in code has the paper's reference snow.
+  std::string material_preset = "paper";
+  SnowMaterial material;
   std::vector<ColliderParams> colliders;
   double dt = 0.001;      // time step (s)
   double duration = 1.0;  // simulated time (s)

@@ -275,7 +275,7 @@ TEST(Cli, RunEstimatesItsCostFromItsFirstSteps) {
   std::ofstream(apart / "apart.json") << R"({"name": "apart", "solver": "mpm",
     "particles_per_cell": 4, "grid": {"cells": [40, 30], "cell_size": 0.01},
     "time": {"dt": 0.0005, "duration": 0.05, "fps": 100},
-    "mpm": {"open_cracks": true}, "material": {"fracture_strain": 0.02},
+    "mpm": {"open_cracks": true}, "material": {"preset": "paper", "fracture_strain": 0.02},
     "bodies": [{"shape": "box", "center": [0.15, 0.15], "size": [0.1, 0.1], "velocity": [-2, 0]},
                {"shape": "box", "center": [0.25, 0.15], "size": [0.1, 0.1], "velocity": [2, 0]}]})";
   const Result pulled = runSnowsim("run " + (apart / "apart.json").string() + " -o " +

@@ -277,7 +277,7 @@ TEST(LevelSet, IsTheSignedDistanceToTheCube) {
 // deep as its deepest point, and the walls that close a 2D scene's slab in 3D on their surface.
 TEST(MeshCollider, TheGridMeetsEachColliderItsInsetInside) {
   Json j = Json::parse(R"({
-    "name": "inset", "dimension": 2, "solver": "mpm",
+    "name": "inset", "dimension": 2, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [20, 20], "cell_size": 0.01},
     "bodies": [{"shape": "ball", "center": [0.1, 0.15], "radius": 0.02}],
     "colliders": [{"shape": "sphere", "position": [0.1, 0.05], "radius": 0.02},
@@ -420,7 +420,7 @@ TEST(MeshBody, WritesBackToTheSameScene) {
 // particle ends inside, and the heights agree to a tenth of a cell.
 TEST(MeshCollider, SnowRestsOnAMeshBoxAsOnTheAnalyticBox) {
   const Json base = Json::parse(R"({
-    "name": "drop", "dimension": 3, "solver": "mpm",
+    "name": "drop", "dimension": 3, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [12, 16, 12], "cell_size": 0.01},
     "particles_per_cell": 8,
     "bodies": [{"shape": "box", "center": [0.06, 0.11, 0.06], "size": [0.03, 0.03, 0.03]}]

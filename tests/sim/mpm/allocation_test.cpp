@@ -50,7 +50,8 @@ namespace {
 template <int D>
 long allocationsPerStepAfterTheFirst(const std::string& integrator, int particles_per_cell = 0,
                                      int threads = 1) {
-  Json j = Json::parse(R"({"name": "alloc", "solver": "mpm", "particles_per_cell": 4,
+  Json j = Json::parse(
+      R"({"name": "alloc", "solver": "mpm", "material": {"preset": "paper"}, "particles_per_cell": 4,
     "time": {"dt": 0.001, "duration": 1, "fps": 10}})");
   j["dimension"] = D;
   j["mpm"] = {{"transfer", "mls"}, {"integrator", integrator}};
@@ -95,7 +96,8 @@ TEST(NoAllocation, SemiImplicitStep2D) {
 // bytes a particle in 3D: position, velocity, mass, radius) and no double copy of the particles
 // (their x and v alone would be 48 bytes a particle more).
 TEST(NoAllocation, FloatFrameAllocatesOnlyTheSnapshot) {
-  Json j = Json::parse(R"({"name": "alloc", "solver": "mpm", "dimension": 3,
+  Json j = Json::parse(
+      R"({"name": "alloc", "solver": "mpm", "material": {"preset": "paper"}, "dimension": 3,
     "grid": {"cells": [12, 12, 12], "cell_size": 0.01}, "particles_per_cell": 8,
     "mpm": {"precision": "float"}, "time": {"dt": 0.001, "duration": 1, "fps": 10},
     "bodies": [{"shape": "ball", "center": [0.06, 0.05, 0.06], "radius": 0.03,

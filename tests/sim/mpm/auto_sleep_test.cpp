@@ -22,7 +22,7 @@ namespace {
 // stop the slab where it was sampled (mpm.collider_inset 0), so that it rests from the start.
 Json pileAndBall(int particles_per_cell = 4) {
   Json j = Json::parse(R"({
-    "name": "t", "dimension": 2, "solver": "mpm",
+    "name": "t", "dimension": 2, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [60, 40], "cell_size": 0.01},
     "time": {"dt": 0.001, "duration": 0.5, "fps": 10},
     "bodies": [{"shape": "box", "center": [0.3, 0.04], "size": [0.56, 0.08]},
@@ -44,7 +44,7 @@ MpmSolver<D, T> makeSolver(const Json& j, int threads = 0) {
 // the slab rests from the start, as pileAndBall's.
 Json pileAndBall3d() {
   return Json::parse(R"({
-    "name": "t", "dimension": 3, "solver": "mpm",
+    "name": "t", "dimension": 3, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [16, 36, 16], "cell_size": 0.01},
     "time": {"dt": 0.001, "duration": 0.5, "fps": 10},
     "particles_per_cell": 8,
@@ -123,7 +123,7 @@ TEST(AutoSleep, BlockAtRestFallsAsleepAndStaysPut) {
 TEST(AutoSleep, ASleepingDampedBlockKeepsOnlyItsElasticStress) {
   Json j = pileAndBall();
   j["bodies"].erase(1);
-  j["material"] = {{"viscosity", 16}};
+  j["material"] = {{"preset", "paper"}, {"viscosity", 16}};
   auto solver = makeSolver(j);
   runUntil(solver, 0.3);
   ASSERT_EQ(solver.statistics().auto_sleep.asleep_now, solver.particles().size());
@@ -347,7 +347,7 @@ TEST(AutoSleep, StillBlocksGiveTheSameResultsOnOneAndTwoThreadsAndAfterAResume) 
 // landing stretches past J_P = 1 (fracture strain 0.05).
 Json crackedPileAndBall3d() {
   Json j = pileAndBall3d();
-  j["material"] = {{"fracture_strain", 0.05}};
+  j["material"] = {{"preset", "paper"}, {"fracture_strain", 0.05}};
   j["mpm"]["open_cracks"] = true;
   j["bodies"][1]["velocity"] = {0, -3, 0};
   return j;
@@ -422,7 +422,7 @@ TEST(AutoSleep, WithOpenCracksSleepingDamagedSnowWakesWhereHit) {
 // nearly every sleeping particle's scatter is kept.
 TEST(AutoSleep, WithOpenCracksSleepingDamagedSnowKeepsItsScatter) {
   Json j = widePileAndBall3d();
-  j["material"] = {{"fracture_strain", 0.05}};
+  j["material"] = {{"preset", "paper"}, {"fracture_strain", 0.05}};
   j["mpm"]["open_cracks"] = true;
   j["bodies"][1]["velocity"] = {0, -3, 0};
   j["bodies"][1]["radius"] = 0.035;

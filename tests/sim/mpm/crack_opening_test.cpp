@@ -40,7 +40,7 @@ struct ShearedBar {
       "name": "bar", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
       "grid": {"cells": [80, 20], "cell_size": 0.01},
       "particles_per_cell": 4,
-      "material": {"fracture_strain": 0.3},
+      "material": {"preset": "paper", "fracture_strain": 0.3},
       "bodies": [{"shape": "box", "center": [0.4, 0.1], "size": [0.4, 0.1]}]
     })");
     j["mpm"] = {{"open_cracks", open_cracks}, {"auto_sleep", {{"enabled", auto_sleep}}}};
@@ -100,7 +100,7 @@ TEST(Fracture, AFractureLengthGivesEachCellTheStrainOfItsBand) {
   Json j = Json::parse(R"({
     "name": "t", "dimension": 2, "solver": "mpm",
     "grid": {"cells": [20, 20], "cell_size": 0.01},
-    "material": {"fracture_strain": 0.3, "fracture_length": 0.005},
+    "material": {"preset": "paper", "fracture_strain": 0.3, "fracture_length": 0.005},
     "bodies": [{"shape": "ball", "center": [0.05, 0.05], "radius": 0.02}]
   })");
   const auto strainAt = [&](Real cell, const Json& material) {
@@ -114,10 +114,11 @@ TEST(Fracture, AFractureLengthGivesEachCellTheStrainOfItsBand) {
   EXPECT_NEAR(strainAt(0.01, band), 0.15, 1e-15);
   EXPECT_EQ(strainAt(0.005, band), 0.3) << "at the band's own cell, the strain given";
   EXPECT_NEAR(strainAt(0.0025, band), 0.6, 1e-15);
-  EXPECT_EQ(strainAt(0.01, {{"fracture_strain", 0.3}}), 0.3) << "no band: every cell alike";
+  EXPECT_EQ(strainAt(0.01, {{"preset", "paper"}, {"fracture_strain", 0.3}}), 0.3)
+      << "no band: every cell alike";
   const Scene parsed = parseScene(j, "t.json");
   EXPECT_EQ(parseScene(sceneToJson(parsed), "again.json").material.fracture_length, 0.005);
-  for (const Json& bad : {Json{{"fracture_length", 0.005}},
+  for (const Json& bad : {Json{{"preset", "paper"}, {"fracture_length", 0.005}},
                           Json{{"fracture_strain", 0.3}, {"fracture_length", -1}}}) {
     Json scene = j;
     scene["material"] = bad;
@@ -175,7 +176,7 @@ TEST(CrackOpening, CollidingBallsThatBreakKeepTheirMomentum) {
     "name": "balls", "dimension": 2, "solver": "mpm", "gravity": [0, 0],
     "grid": {"cells": [60, 30], "cell_size": 0.01},
     "particles_per_cell": 4,
-    "material": {"fracture_strain": 0.05},
+    "material": {"preset": "paper", "fracture_strain": 0.05},
     "mpm": {"open_cracks": true},
     "bodies": [{"shape": "ball", "center": [0.2, 0.15], "radius": 0.06, "velocity": [3, 0.5]},
                {"shape": "ball", "center": [0.4, 0.14], "radius": 0.05, "velocity": [-3, 0]}]
@@ -300,14 +301,14 @@ TEST(CrackOpening, TwoRanksSharesAddUpToOneProcessFields) {
 
 TEST(CrackOpening, BadSettingsNameTheField) {
   Json j = Json::parse(R"({
-    "name": "t", "dimension": 2, "solver": "mpm",
+    "name": "t", "dimension": 2, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [20, 20], "cell_size": 0.01},
     "bodies": [{"shape": "ball", "center": [0.1, 0.1], "radius": 0.03}]
   })");
   const auto problem = [&](const Json& mpm, Real fracture_strain) -> std::string {
     Json scene = j;
     scene["mpm"] = mpm;
-    scene["material"] = {{"fracture_strain", fracture_strain}};
+    scene["material"] = {{"preset", "paper"}, {"fracture_strain", fracture_strain}};
     try {
       refuseWhatIsNotDistributed(parseScene(scene, "t.json"), 2);
     } catch (const InputError& e) {
@@ -324,7 +325,7 @@ TEST(CrackOpening, BadSettingsNameTheField) {
   // Auto-sleep runs with open cracks: the scene and the solver take the pair.
   Json both = j;
   both["mpm"] = {{"open_cracks", true}, {"auto_sleep", {{"enabled", true}}}};
-  both["material"] = {{"fracture_strain", 0.3}};
+  both["material"] = {{"preset", "paper"}, {"fracture_strain", 0.3}};
   const Scene scene = parseScene(both, "t.json");
   EXPECT_TRUE(scene.mpm.open_cracks && scene.mpm.auto_sleep.enabled);
   EXPECT_NO_THROW(MpmSolver<2>(scene, sampleBodies<2>(scene), 1));

@@ -162,7 +162,7 @@ TEST(ConjugateResidual, DiagonalPreconditionerOvercomesBadScalingIndefinite) {
 
 Json ballScene(int dimension) {
   Json j = Json::parse(R"({
-    "name": "t", "solver": "mpm",
+    "name": "t", "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cell_size": 0.01},
     "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
     "mpm": {"integrator": "semi_implicit"}

@@ -33,7 +33,7 @@ void runFor(MpmSolver<D>& s, Real duration) {
 // A 2D box of snow on the ground with one collider, as JSON to vary.
 Json sceneWith(const Json& collider) {
   Json j = Json::parse(R"({
-    "name": "t", "dimension": 2, "solver": "mpm",
+    "name": "t", "dimension": 2, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [24, 16], "cell_size": 0.01},
     "time": {"dt": 0.002, "duration": 1, "fps": 10},
     "particles_per_cell": 4,

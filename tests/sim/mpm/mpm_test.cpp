@@ -21,7 +21,7 @@ namespace {
 
 Json baseScene() {
   return Json::parse(R"({
-    "name": "t", "dimension": 2, "solver": "mpm",
+    "name": "t", "dimension": 2, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [20, 20], "cell_size": 0.01},
     "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
     "particles_per_cell": 4,
@@ -82,7 +82,7 @@ MpmSolver<2, T> spinningDisc(const Json& mpm) {
   j["grid"]["cells"] = {40, 40};
   j["gravity"] = {0, 0};
   j["mpm"] = mpm;
-  j["material"] = {{"theta_c", 0.5}, {"theta_s", 0.5}};
+  j["material"] = {{"preset", "paper"}, {"theta_c", 0.5}, {"theta_s", 0.5}};
   j["bodies"][0]["center"] = {0.2, 0.2};
   const Scene scene = parseScene(j, "test.json");
   Particles<2> p = sampleBodies<2>(scene);
@@ -247,7 +247,7 @@ Real restingHeight(Json j) {
 TEST(Mpm, SnowRestsOnTheFloorNotACellAboveIt) {
   Json flat = baseScene();
   Json deep = Json::parse(R"({
-    "name": "t", "dimension": 3, "solver": "mpm",
+    "name": "t", "dimension": 3, "solver": "mpm", "material": {"preset": "paper"},
     "grid": {"cells": [8, 8, 8], "cell_size": 0.01},
     "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
     "particles_per_cell": 8,
@@ -736,7 +736,7 @@ void expectSameOnEveryVectorIsa(const Json& j, const std::string& what) {
 template <int D, class T = Real>
 void expectCracksOpenBitIdenticallyOnAnyThreadCount(Json j) {
   j["mpm"] = {{"open_cracks", true}};
-  j["material"] = {{"fracture_strain", 0.02}};
+  j["material"] = {{"preset", "paper"}, {"fracture_strain", 0.02}};
   const Json block = j["bodies"][0];
   j["bodies"] = Json::array();
   for (const int side : {-1, 1}) {
@@ -880,7 +880,7 @@ struct RingingBar {
       "time": {"dt": 0.001, "duration": 0.1, "fps": 10},
       "particles_per_cell": 4,
       "mpm": {"transfer": "apic"},
-      "material": {"E0": 100000, "nu": 0, "theta_c": 0.9, "theta_s": 0.9, "xi": 0},
+      "material": {"preset": "paper", "E0": 100000, "nu": 0, "theta_c": 0.9, "theta_s": 0.9, "xi": 0},
       "bodies": [{"shape": "box", "center": [0.15, 0.03], "size": [0.2, 0.02], "density": 400}]
     })");
     j["material"]["viscosity"] = viscosity;

@@ -22,6 +22,7 @@ namespace {
 
 const std::string kMinimal = R"({
   "name": "test",
+  "material": {"preset": "paper"},
   "grid": {"cells": [10, 12], "cell_size": 0.01},
   "bodies": [{"shape": "ball", "center": [0.05, 0.06], "radius": 0.01}]
 })";

@@ -39,6 +39,7 @@ namespace {
 // in free fall would never leave the elastic range and flatter the rate).
 Json sceneJson(int dimension, int cells, double box) {
   Json j = Json::parse(R"({"name": "bench", "solver": "mpm", "particles_per_cell": 4,
+    "material": {"preset": "paper"},
     "mpm": {"transfer": "mls", "kernel": "quadratic", "adaptive_dt": false}})");
   j["dimension"] = dimension;
   const double h = 1.0 / cells;
@@ -204,7 +205,7 @@ Json crackSceneJson(bool open_cracks) {
     "grid": {"cells": [60, 40, 40], "cell_size": 0.01}, "particles_per_cell": 8,
     "mpm": {"transfer": "mls", "kernel": "quadratic", "crack_friction": 0.6,
             "walls": {"type": "separating", "friction": 0.3}},
-    "material": {"xi": 10, "hardening_min": 0.2, "hardening_max": 5, "viscosity": 4,
+    "material": {"preset": "paper", "xi": 10, "hardening_min": 0.2, "hardening_max": 5, "viscosity": 4,
                  "fracture_strain": 0.3},
     "bodies": [{"shape": "ball", "center": [0.3, 0.2, 0.2], "radius": 0.1, "velocity": [4, 0, 0]}],
     "colliders": [{"shape": "box", "position": [0.55, 0.2, 0.2], "size": [0.1, 0.4, 0.4],

@@ -26,7 +26,7 @@ Json sceneJson(bool auto_sleep) {
     "grid": {"cells": [34, 30, 34], "cell_size": 0.01},
     "time": {"dt": 0.002, "duration": 1, "fps": 10},
     "particles_per_cell": 8,
-    "mpm": {"transfer": "mls", "kernel": "quadratic"},
+    "mpm": {"transfer": "mls", "kernel": "quadratic"}, "material": {"preset": "paper"},
     "bodies": [{"shape": "box", "center": [0.17, 0.035, 0.17], "size": [0.3, 0.05, 0.3]},
                {"shape": "ball", "center": [0.17, 0.24, 0.17], "radius": 0.04,
                 "velocity": [0, -1, 0]}]})");

@@ -199,14 +199,27 @@ struct Outcome {
   Frames frames;
 };
 
+// The study runs each scene with every solver, APIC, PIC/FLIP and the semi-implicit one
+// included: a scene's cracks or damper would stop those runs, so it is refused when read.
+void refuseWhatEverySolverCannotRun(const Scene& scene, const std::string& file) {
+  if (scene.mpm.open_cracks || scene.material.viscosity > 0)
+    throw InputError(file + ": material.preset \"" + scene.material_preset + "\"" +
+                     (scene.mpm.open_cracks ? " opens cracks" : " has a damper") +
+                     ", which not every solver of the study runs (its mpm_mls_cracks axis opens "
+                     "them); name material.preset \"paper\"");
+}
+
 // The scene files of a study, each read and parsed once.
 class Scenes {
  public:
   explicit Scenes(std::string dir) : dir_(std::move(dir)) {}
   const Scene& operator[](const std::string& name) {
     auto it = scenes_.find(name);
-    if (it == scenes_.end())
-      it = scenes_.emplace(name, loadScene(dir_ + "/" + name + ".json")).first;
+    if (it == scenes_.end()) {
+      const std::string file = dir_ + "/" + name + ".json";
+      it = scenes_.emplace(name, loadScene(file)).first;
+      refuseWhatEverySolverCannotRun(it->second, file);
+    }
     return it->second;
   }
 

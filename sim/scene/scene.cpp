@@ -270,7 +270,7 @@ SnowMaterial parseMaterial(const Json* j, const std::string& file) {
   m.viscosity = f.number("viscosity", m.viscosity, 0, 1e6);
   m.fracture_strain = f.number("fracture_strain", m.fracture_strain, 0, 100);
   m.fracture_length = f.number("fracture_length", m.fracture_length, 0, 10);
-  f.string("preset", std::nullopt);  // checked, and laid beneath, by presetFor
+  f.string("preset", std::nullopt);  // checked, and laid beneath, by presetOf
   if (m.fracture_length > 0 && !(m.fracture_strain > 0)) {
     FieldError e(file, "material.fracture_length",
                  "needs material.fracture_strain > 0 (the strain its band fails at)");
@@ -295,8 +295,10 @@ std::string stringOr(const Json& object, const std::string& key, const std::stri
   return it != object.end() && it->is_string() ? it->get<std::string>() : fallback;
 }
 
-// A preset's cracks or damper that the scene's own transfer or integrator cannot run: refused
-// naming both, where parseMpm would blame a field the scene does not write.
+// A preset's cracks or damper that the scene's own transfer or integrator cannot run, or a
+// fracture the scene turns off under the preset's crack band: refused naming both, where
+// parseMpm and parseMaterial would blame a field the scene does not write. A value that is no
+// transfer or integrator at all is left for parseMpm to list the allowed ones.
 void refusePresetConflicts(const MaterialPreset& preset, const Json& own_mpm,
                            const Json& own_material, const std::string& file) {
   const bool cracks = !own_mpm.contains("open_cracks") && preset.mpm.value("open_cracks", false);
@@ -304,32 +306,43 @@ void refusePresetConflicts(const MaterialPreset& preset, const Json& own_mpm,
       !own_material.contains("viscosity") && preset.material.value("viscosity", 0.0) > 0;
   const std::string integrator = stringOr(own_mpm, "integrator", "explicit");
   const std::string transfer = stringOr(own_mpm, "transfer", "mls");
-  std::string field, needs;
-  if (integrator != "explicit" && (cracks || damper)) {
-    field = "mpm.integrator";
-    needs = std::string(cracks ? "opens cracks (mpm.open_cracks), which need"
-                               : "has a damper (material.viscosity), which needs") +
-            " mpm.integrator \"explicit\", not \"" + integrator + "\"";
-  } else if (transfer != "mls" && cracks) {
-    field = "mpm.transfer";
-    needs =
-        "opens cracks (mpm.open_cracks), which need mpm.transfer \"mls\", not \"" + transfer + "\"";
-  } else {
-    return;
-  }
-  std::string without;
-  for (const MaterialPreset& p : materialPresets()) {
-    const bool runs = !p.mpm.value("open_cracks", false) &&
-                      (field == "mpm.transfer" || !(p.material.value("viscosity", 0.0) > 0));
-    if (runs) without += (without.empty() ? "\"" : ", \"") + p.name + "\"";
-  }
-  const bool named = own_material.contains("preset");
-  FieldError e(file, "material.preset",
-               "\"" + preset.name + "\"" + (named ? "" : " (the default when none is named)") +
-                   " " + needs + "; name a preset that runs with " + field + " (" + without +
-                   ") or set the preset's fields in the scene");
-  e.also = {field};  // a --set of either is blamed
-  throw e;
+  const std::string named =
+      "\"" + preset.name + "\"" +
+      (own_material.contains("preset") ? "" : " (the default when none is named)");
+  const auto refuse = [&](const std::string& field, const std::string& problem) {
+    FieldError e(file, "material.preset", named + " " + problem);
+    e.also = {field};  // a --set of either is blamed
+    throw e;
+  };
+  const auto presetsWithout = [](bool damper_too) {
+    std::string names;
+    for (const MaterialPreset& p : materialPresets())
+      if (!p.mpm.value("open_cracks", false) &&
+          !(damper_too && p.material.value("viscosity", 0.0) > 0))
+        names += (names.empty() ? "\"" : ", \"") + p.name + "\"";
+    return names;
+  };
+  if (integrator == "semi_implicit" && (cracks || damper))
+    refuse("mpm.integrator",
+           std::string(cracks ? "opens cracks (mpm.open_cracks), which need"
+                              : "has a damper (material.viscosity), which needs") +
+               " mpm.integrator \"explicit\", not \"semi_implicit\"; name a preset without "
+               "either (" +
+               presetsWithout(true) + ") or set mpm.open_cracks false and material.viscosity 0");
+  if ((transfer == "apic" || transfer == "pic_flip") && cracks)
+    refuse("mpm.transfer",
+           "opens cracks (mpm.open_cracks), which need mpm.transfer \"mls\", not \"" + transfer +
+               "\"; name a preset without them (" + presetsWithout(false) +
+               ") or set mpm.open_cracks false");
+  const auto strain = own_material.find("fracture_strain");
+  if (strain != own_material.end() && strain->is_number() && !(strain->get<double>() > 0) &&
+      !own_material.contains("fracture_length") &&
+      preset.material.value("fracture_length", 0.0) > 0)
+    refuse("material.fracture_strain",
+           "fails snow over a crack band (material.fracture_length), which needs "
+           "material.fracture_strain > 0; to turn fracture off set material.fracture_length 0 and "
+           "mpm.open_cracks false as well, or name a preset without fracture (" +
+               presetsWithout(false) + ")");
 }
 
 // A rotation (degrees) or angular velocity (degrees/s): a number in 2D (about z), x, y, z in 3D.
@@ -674,10 +687,15 @@ Scene parseScene(const Json& root, const std::string& file) {
   const Json* own_mpm = f.object("mpm", false);
   const Json* own_material = f.object("material", false);
   const MaterialPreset& preset = presetOf(own_material, file);
-  refusePresetConflicts(preset, own_mpm ? *own_mpm : empty, own_material ? *own_material : empty,
-                        file);
+  // The preset's crack settings only where MPM runs: a scene of the report's method keeps its
+  // mpm object as written.
+  const bool mpm_runs = s.solver == SolverType::Mpm;
+  if (mpm_runs)
+    refusePresetConflicts(preset, own_mpm ? *own_mpm : empty, own_material ? *own_material : empty,
+                          file);
   s.material_preset = preset.name;
-  const Json mpm = beneath(own_mpm ? *own_mpm : empty, preset.mpm);
+  const Json mpm =
+      mpm_runs ? beneath(own_mpm ? *own_mpm : empty, preset.mpm) : (own_mpm ? *own_mpm : empty);
   s.mpm = parseMpm(&mpm, file, s.dimension);
   Json material = beneath(own_material ? *own_material : empty, preset.material);
   material["preset"] = preset.name;

@@ -62,6 +62,7 @@ TEST(MaterialPreset, PaperIsTheReferenceSnowUnchanged) {
   EXPECT_EQ(s.material.fracture_strain, 0);
   EXPECT_FALSE(s.mpm.open_cracks);
   EXPECT_DOUBLE_EQ(s.bodies[0].density, 400);
+  EXPECT_EQ(s.mpm.crack_friction, MpmParams{}.crack_friction);
 }
 
 TEST(MaterialPreset, TheScenesOwnFieldsWinOverThePresets) {
@@ -121,6 +122,21 @@ TEST(MaterialPreset, CracksWithAnIntegratorOrTransferThatCannotRunThemAreRefused
       "");
   EXPECT_EQ(errorOf({"mpm.transfer=apic", "mpm.open_cracks=false"}), "")
       << "the scene's own field settles it";
+  EXPECT_EQ(errorOf({"solver=density_hybrid", "mpm.transfer=apic"}), "")
+      << "the report's method runs no cracks";
+  const std::string typo = errorOf({"mpm.integrator=semi-implicit"});
+  EXPECT_NE(typo.find("mpm.integrator: \"semi-implicit\" is not allowed"), std::string::npos)
+      << typo;
+}
+
+TEST(MaterialPreset, TurningFractureOffUnderTheCrackBandSaysWhatElseToTurnOff) {
+  const std::string off = errorOf({"material.fracture_strain=0"});
+  EXPECT_NE(off.find("--set material.fracture_strain=0"), std::string::npos) << off;
+  EXPECT_NE(off.find("material.fracture_length 0 and mpm.open_cracks false"), std::string::npos)
+      << off;
+  EXPECT_EQ(errorOf({"material.fracture_strain=0", "material.fracture_length=0",
+                     "mpm.open_cracks=false"}),
+            "");
 }
 
 }  // namespace

@@ -73,7 +73,7 @@ const std::vector<std::string> kAllSolvers = {"density_hybrid", "mpm_pic_flip", 
 
 // quick: 21 runs in seconds, for CI (tests/study). full: the study of
 // docs/study.md (the 2D scenes over cell size too; the 3D smash at one cell size, as its
-// reference at half the cell size is already 15k particles). stability: the stability map (time
+// reference at half the cell size is already 14k particles). stability: the stability map (time
 // step against Young's modulus, and against the hardening of a small sticky-wall smash). Each
 // includes steps beyond the explicit limit and dt = 0.01, the report's Fig. 8 failure. The report's
 // Fig. 6 claim (pile heights x2 > x4 > x8 at 0.5 s), scored on each x8 row.

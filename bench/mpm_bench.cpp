@@ -205,8 +205,8 @@ Json crackSceneJson(bool open_cracks) {
     "grid": {"cells": [60, 40, 40], "cell_size": 0.01}, "particles_per_cell": 8,
     "mpm": {"transfer": "mls", "kernel": "quadratic", "crack_friction": 0.6,
             "walls": {"type": "separating", "friction": 0.3}},
-    "material": {"preset": "paper", "xi": 10, "hardening_min": 0.2, "hardening_max": 5, "viscosity": 4,
-                 "fracture_strain": 0.3},
+    "material": {"preset": "paper", "xi": 10, "hardening_min": 0.2, "hardening_max": 5,
+                 "viscosity": 4, "fracture_strain": 0.3},
     "bodies": [{"shape": "ball", "center": [0.3, 0.2, 0.2], "radius": 0.1, "velocity": [4, 0, 0]}],
     "colliders": [{"shape": "box", "position": [0.55, 0.2, 0.2], "size": [0.1, 0.4, 0.4],
                    "type": "sticky"}]})");

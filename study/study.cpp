@@ -203,10 +203,13 @@ struct Outcome {
 // included: a scene's cracks or damper would stop those runs, so it is refused when read.
 void refuseWhatEverySolverCannotRun(const Scene& scene, const std::string& file) {
   if (scene.mpm.open_cracks || scene.material.viscosity > 0)
-    throw InputError(file + ": material.preset \"" + scene.material_preset + "\"" +
-                     (scene.mpm.open_cracks ? " opens cracks" : " has a damper") +
-                     ", which not every solver of the study runs (its mpm_mls_cracks axis opens "
-                     "them); name material.preset \"paper\"");
+    throw InputError(file + ": " +
+                     (scene.mpm.open_cracks ? "mpm.open_cracks (cracks that open)"
+                                            : "material.viscosity (a damper)") +
+                     ", of material.preset \"" + scene.material_preset +
+                     "\" or the scene, is more than every solver of the study runs (its "
+                     "mpm_mls_cracks axis opens cracks itself); name material.preset \"paper\" "
+                     "and leave both out");
 }
 
 // The scene files of a study, each read and parsed once.

@@ -101,13 +101,13 @@ std::string notFinite(const Json& j) {
   return j.get<std::string>() + " is not a finite number";
 }
 
+}  // namespace
+
 std::string joinNames(const std::vector<std::string>& names) {
   std::string r;
   for (size_t i = 0; i < names.size(); ++i) r += (i ? ", \"" : "\"") + names[i] + "\"";
   return r;
 }
-
-}  // namespace
 
 JsonFields::JsonFields(const Json& object, std::string path, std::string file)
     : object_(object), path_(std::move(path)), file_(std::move(file)) {

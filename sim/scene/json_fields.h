@@ -50,6 +50,9 @@ struct FieldError : InputError {
 // The dotted form of a field path: "bodies[0].radius" gives "bodies.0.radius".
 std::string dottedPath(const std::string& path);
 
+// The names as a message lists them: "a", "b", "c".
+std::string joinNames(const std::vector<std::string>& names);
+
 // Levenshtein distance, for "did you mean" suggestions.
 int editDistance(const std::string& a, const std::string& b);
 

@@ -46,32 +46,29 @@ const Json shutCracks = {{"open_cracks", false}, {"crack_friction", 0.6}};
 // Physics of Glaciers, 4th ed. 2010, table 2.1: new snow 50-200 kg/m^3, wind-packed snow
 // 350-400, firn 400-830, very wet snow 700-800). Stiffnesses stay near the paper's, far below
 // real snow's (Mellor 1975), because the step shrinks with the wave speed sqrt(E0 / rho); the
-// other values are this project's, chosen by the smash of docs/mpm.md, "Material presets".
+// other values are this project's, chosen by the smash of docs/materials.md.
 std::vector<MaterialPreset> makePresets() {
   return {
-      {"chunky",
-       "snow that breaks into chunks: the paper's snow with bounded hardening, a damper, "
-       "failure past a fracture strain and cracks that open",
-       crackMaterial(0.3), openCracks, 400},
-      {"paper", "the paper's reference snow (Stomakhin et al. 2013, table 2), unchanged",
-       paperMaterial(), shutCracks, 400},
+      // Snow that breaks into chunks: the paper's snow with bounded hardening, a damper, failure
+      // past a fracture strain and cracks that open.
+      {"chunky", crackMaterial(0.3), openCracks, 400},
+      // The paper's reference snow (Stomakhin et al. 2013, table 2), unchanged.
+      {"paper", paperMaterial(), shutCracks, 400},
+      // Light, soft new snow: a third of chunky's density and of its stiffness (the paper's lower
+      // Young's modulus), so that the same throw breaks it alike (rho v^2 / E0 is chunky's);
+      // weaker once cracked.
       {"powder",
-       "light, soft new snow: a third of chunky's density and of its stiffness (the paper's "
-       "lower Young's modulus), so that the same throw breaks it alike (rho v^2 / E0 is "
-       "chunky's), weaker once cracked",
        with(crackMaterial(0.15), {{"E0", 4.8e4}, {"hardening_min", 0.05}, {"viscosity", 1.4}}),
        {{"open_cracks", true}, {"crack_friction", 0.2}},
        150},
-      {"packed",
-       "hard, icy packed snow: dense, four times as stiff, compacting and so hardening at the "
-       "first touch (critical compression 1e-2, stretch 5e-3): a throw that breaks chunky "
-       "bounces it off whole",
-       with(crackMaterial(0.1), {{"E0", 5.6e5}, {"theta_c", 1e-2}, {"theta_s", 5e-3}}), openCracks,
-       500},
+      // Hard, icy packed snow: dense, four times as stiff, compacting and so hardening at the
+      // first touch: a throw that breaks chunky bounces it off whole.
+      {"packed", with(crackMaterial(0.1), {{"E0", 5.6e5}, {"theta_c", 1e-2}, {"theta_s", 5e-3}}),
+       openCracks, 500},
+      // Wet, heavy snow that splats and sticks: dense and soft, yielding early with little
+      // hardening (the paper's lower hardening), its softening bounded at half its strength,
+      // never failing.
       {"wet",
-       "wet, heavy snow that splats and sticks: dense and soft, yielding early (critical "
-       "compression 5e-3, stretch 2.5e-3) with little hardening (the paper's lower hardening), "
-       "its softening bounded at half its strength, never failing",
        with(paperMaterial(), {{"E0", 4.8e4},
                               {"theta_c", 5e-3},
                               {"theta_s", 2.5e-3},

@@ -1,6 +1,6 @@
 // Named snow materials (`"material": {"preset": NAME}`): each a set of the material's fields, the
 // solver's physical ones (mpm.open_cracks, mpm.crack_friction) and the bodies' rest density, laid
-// beneath whatever the scene sets itself. docs/mpm.md, "Material presets", shows each.
+// beneath whatever the scene sets itself. docs/materials.md shows each.
 #pragma once
 
 #include <string>
@@ -12,7 +12,6 @@ namespace snowsim {
 
 struct MaterialPreset {
   std::string name;
-  std::string summary;      // one line, for messages and the docs
   nlohmann::json material;  // fields of the scene's "material" object
   nlohmann::json mpm;       // fields of the scene's "mpm" object
   double density;           // kg/m^3, for bodies that give none

@@ -315,12 +315,12 @@ void refusePresetConflicts(const MaterialPreset& preset, const Json& own_mpm,
     throw e;
   };
   const auto presetsWithout = [](bool damper_too) {
-    std::string names;
+    std::vector<std::string> names;
     for (const MaterialPreset& p : materialPresets())
       if (!p.mpm.value("open_cracks", false) &&
           !(damper_too && p.material.value("viscosity", 0.0) > 0))
-        names += (names.empty() ? "\"" : ", \"") + p.name + "\"";
-    return names;
+        names.push_back(p.name);
+    return joinNames(names);
   };
   if (integrator == "semi_implicit" && (cracks || damper))
     refuse("mpm.integrator",

@@ -1,5 +1,5 @@
 // The material presets on a small 2D smash into a sticky wall: what each is said to do
-// (docs/mpm.md, "Material presets") holds at two cells and two seedings, measured with the clumps
+// (docs/materials.md) holds at two cells and two seedings, measured with the clumps
 // metric of `snowsim clumps`.
 #include <gtest/gtest.h>
 
